@@ -1,0 +1,134 @@
+#include "common.h"
+#include "shapemap/error.h"
+#include "shapemap/io.h"
+#include <omp.h>
+#include <unistd.h>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <mutex>
+
+namespace fs = std::filesystem;
+
+namespace shapemap::cli {
+
+void apply_threads(const GlobalOptions& g) {
+  if (g.threads > 0) omp_set_num_threads(g.threads);
+}
+
+ProgressCallback make_progress(const GlobalOptions& g) {
+  if (g.quiet || !isatty(fileno(stderr))) return {};
+  auto last = std::make_shared<std::pair<std::string, int>>("", -1);
+  auto mtx = std::make_shared<std::mutex>();
+  return [last, mtx](const std::string& stage, double f) {
+    std::lock_guard<std::mutex> lock(*mtx);
+    int pct = int(std::clamp(f, 0.0, 1.0) * 100);
+    if (stage == last->first && pct == last->second) return;
+    *last = {stage, pct};
+    const int width = 30;
+    int fill = pct * width / 100;
+    std::fprintf(stderr, "\r%-28s [%s%s] %3d%%", stage.c_str(), std::string(fill, '#').c_str(),
+                 std::string(width - fill, ' ').c_str(), pct);
+    if (pct >= 100) std::fprintf(stderr, "\n");
+    std::fflush(stderr);
+  };
+}
+
+void info(const GlobalOptions& g, const std::string& msg) {
+  if (!g.quiet) std::cerr << msg << "\n";
+}
+
+OutputDir::OutputDir(const std::string& final_path) : final_(final_path) {
+  if (final_.empty()) throw InputError("output folder: empty path (use -o OUT)");
+  fs::path p(final_);
+  if (fs::exists(p) && !fs::is_directory(p))
+    throw InputError(final_ + ": exists and is not a folder");
+  fs::path parent = p.has_parent_path() ? p.parent_path() : fs::path(".");
+  std::error_code ec;
+  fs::create_directories(parent, ec);
+  tmp_ = (parent / ("." + p.filename().string() + ".tmp-" + std::to_string(getpid()))).string();
+  fs::remove_all(tmp_, ec);
+  if (!fs::create_directories(tmp_, ec) || ec)
+    throw InputError(final_ + ": cannot create output folder (" + ec.message() + ")");
+}
+
+OutputDir::~OutputDir() {
+  if (!committed_) {
+    std::error_code ec;
+    fs::remove_all(tmp_, ec);
+  }
+}
+
+std::string OutputDir::path(const std::string& file) const {
+  fs::path p = fs::path(tmp_) / file;
+  std::error_code ec;
+  fs::create_directories(p.parent_path(), ec);
+  return p.string();
+}
+
+void OutputDir::commit() {
+  fs::path dst(final_);
+  std::error_code ec;
+  if (!fs::exists(dst)) {
+    fs::rename(tmp_, dst, ec);
+    if (ec) throw Error(final_ + ": cannot move output into place: " + ec.message());
+  } else {
+    // Move each produced file into the existing folder (replacing same-named files).
+    for (auto& e : fs::recursive_directory_iterator(tmp_)) {
+      if (!e.is_regular_file()) continue;
+      fs::path rel = fs::relative(e.path(), tmp_);
+      fs::create_directories((dst / rel).parent_path(), ec);
+      fs::rename(e.path(), dst / rel, ec);
+      if (ec) throw Error((dst / rel).string() + ": cannot move into place: " + ec.message());
+    }
+    fs::remove_all(tmp_, ec);
+  }
+  committed_ = true;
+}
+
+void StageTimer::start(const std::string& name) {
+  if (!current_.empty()) stop();
+  current_ = name;
+  t0_ = std::chrono::steady_clock::now();
+}
+
+void StageTimer::stop() {
+  if (current_.empty()) return;
+  double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
+  stages_.push_back({current_, s});
+  current_.clear();
+}
+
+nlohmann::json StageTimer::json() const {
+  nlohmann::json j = nlohmann::json::object();
+  for (auto& [n, s] : stages_) j[n] = s;
+  j["total"] = total();
+  return j;
+}
+
+double StageTimer::total() const {
+  double t = 0;
+  for (auto& s : stages_) t += s.second;
+  return t;
+}
+
+nlohmann::json report_header(const GlobalOptions& g, const std::string& command) {
+  nlohmann::json j;
+  j["tool"] = "shapemap 0.1.0";
+  j["command"] = command;
+  j["seed"] = g.seed;
+  j["threads"] = g.threads > 0 ? g.threads : omp_get_max_threads();
+  return j;
+}
+
+void write_json(const std::string& path, const nlohmann::json& j) {
+  write_text_atomic(path, j.dump(2) + "\n");
+}
+
+int not_built(const std::string& what) {
+  std::cerr << "shapemap: " << what << " is not built yet in this version\n";
+  return 1;
+}
+
+}  // namespace shapemap::cli

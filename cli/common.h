@@ -1,0 +1,84 @@
+// Shared pieces of the command-line tool: global options, progress bar, atomic
+// output folders, report.json, and error handling.
+#pragma once
+#include "shapemap/progress.h"
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace shapemap::cli {
+
+struct GlobalOptions {
+  bool quiet = false;
+  int threads = 0;          // 0 = all cores
+  std::uint64_t seed = 1;
+};
+
+// Applies --threads to OpenMP.
+void apply_threads(const GlobalOptions& g);
+
+// Progress on stderr: a bar when stderr is a terminal (and not --quiet), else nothing.
+ProgressCallback make_progress(const GlobalOptions& g);
+// A one-line message on stderr unless --quiet.
+void info(const GlobalOptions& g, const std::string& msg);
+
+// A folder written under a temporary name and moved into place by commit(); if the
+// object dies without commit() (an exception), the temporary folder is removed, so a
+// failed run leaves no partial output.
+class OutputDir {
+ public:
+  explicit OutputDir(const std::string& final_path);
+  ~OutputDir();
+  std::string path(const std::string& file) const;  // path inside the temporary folder
+  const std::string& final_path() const { return final_; }
+  void commit();
+
+ private:
+  std::string final_, tmp_;
+  bool committed_ = false;
+};
+
+// Wall-clock timer of named stages, for report.json.
+class StageTimer {
+ public:
+  void start(const std::string& name);
+  void stop();
+  nlohmann::json json() const;
+  double total() const;
+
+ private:
+  std::vector<std::pair<std::string, double>> stages_;
+  std::string current_;
+  std::chrono::steady_clock::time_point t0_;
+};
+
+// Common report.json fields: tool version, command line, seed, threads.
+nlohmann::json report_header(const GlobalOptions& g, const std::string& command);
+void write_json(const std::string& path, const nlohmann::json& j);
+
+// A subcommand: registers itself on the app; `run` is called when it is selected.
+struct Command {
+  CLI::App* app = nullptr;
+  std::function<int()> run;
+};
+
+// Each cli/cmd_*.cpp defines one of these.
+Command register_surface_map(CLI::App& app, GlobalOptions& g);
+Command register_volume_map(CLI::App& app, GlobalOptions& g);
+Command register_ball(CLI::App& app, GlobalOptions& g);
+Command register_register(CLI::App& app, GlobalOptions& g);
+Command register_tetrahedralize(CLI::App& app, GlobalOptions& g);
+Command register_generate(CLI::App& app, GlobalOptions& g);
+Command register_evaluate(CLI::App& app, GlobalOptions& g);
+Command register_render(CLI::App& app, GlobalOptions& g);
+Command register_demo(CLI::App& app, GlobalOptions& g);
+Command register_check(CLI::App& app, GlobalOptions& g);
+
+// For subcommands whose method is not built yet: message, exit 1.
+int not_built(const std::string& what);
+
+}  // namespace shapemap::cli

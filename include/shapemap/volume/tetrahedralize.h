@@ -1,0 +1,22 @@
+// Tetrahedralization of a closed surface with CGAL Mesh_3.
+#pragma once
+#include "shapemap/mesh.h"
+#include "shapemap/progress.h"
+
+namespace shapemap {
+
+struct TetrahedralizeOptions {
+  double edge_length = 0;      // target tet edge length (0: derived from target_tets or the input)
+  int target_tets = 0;         // approximate tet count (0: use edge_length or ~30k)
+  double radius_edge_ratio = 3.0;  // Mesh_3 cell criterion (issue: <= 3)
+  bool faithful_boundary = true;   // protect and keep the input surface (polyhedral domain)
+  bool optimize = true;            // ODT/perturbation/exudation to remove slivers
+  unsigned seed = 0;
+};
+
+// V, F: closed, manifold, consistently oriented surface. Throws InputError if not.
+// The result has positively oriented tets and no inverted elements.
+TetMesh tetrahedralize(const TriMesh& surface, const TetrahedralizeOptions& opt = {},
+                       const ProgressCallback& progress = {});
+
+}  // namespace shapemap

@@ -1,0 +1,92 @@
+// Mesh measures, normalizations, boundary extraction and adjacency against
+// hand-computed references.
+#include "shapemap/adjacency.h"
+#include "shapemap/mesh.h"
+#include <gtest/gtest.h>
+
+using namespace shapemap;
+
+namespace {
+// Unit cube [0,1]^3 split into 6 tets around the diagonal 0-6 (all positive).
+TetMesh unit_cube_tets() {
+  TetMesh m;
+  m.V.resize(8, 3);
+  m.V << 0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 0, 0, 1, 1, 0, 1, 1, 1, 1, 0, 1, 1;
+  m.T.resize(6, 4);
+  m.T << 0, 1, 2, 6, 0, 2, 3, 6, 0, 3, 7, 6, 0, 7, 4, 6, 0, 4, 5, 6, 0, 5, 1, 6;
+  // Orient positively whatever the listing above.
+  Eigen::VectorXd vol = tet_volumes(m.V, m.T);
+  for (int t = 0; t < 6; ++t)
+    if (vol(t) < 0) std::swap(m.T(t, 2), m.T(t, 3));
+  return m;
+}
+TriMesh tetrahedron_surface() {
+  TriMesh m;
+  m.V.resize(4, 3);
+  m.V << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1;
+  m.F.resize(4, 3);
+  m.F << 0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3;
+  return m;
+}
+}  // namespace
+
+TEST(Mesh, CubeVolumeAndBoundary) {
+  TetMesh cube = unit_cube_tets();
+  Eigen::VectorXd vol = tet_volumes(cube.V, cube.T);
+  EXPECT_NEAR(vol.sum(), 1.0, 1e-12);
+  for (int t = 0; t < 6; ++t) EXPECT_NEAR(vol(t), 1.0 / 6.0, 1e-12);
+  TetBoundary b = boundary_surface(cube);
+  EXPECT_EQ(b.surface.num_faces(), 12);      // 6 squares, 2 triangles each
+  EXPECT_EQ(b.surface.num_vertices(), 8);
+  EXPECT_NEAR(surface_area(b.surface.V, b.surface.F), 6.0, 1e-12);
+  EXPECT_NEAR(enclosed_volume(b.surface.V, b.surface.F), 1.0, 1e-12);  // outward
+  for (int i = 0; i < b.surface.num_vertices(); ++i) EXPECT_EQ(b.to_surface(b.to_volume(i)), i);
+}
+
+TEST(Mesh, TetrahedronSurfaceMeasures) {
+  TriMesh m = tetrahedron_surface();
+  EXPECT_NEAR(enclosed_volume(m.V, m.F), 1.0 / 6.0, 1e-12);
+  EXPECT_NEAR(surface_area(m.V, m.F), 1.5 + std::sqrt(3.0) / 2.0, 1e-12);
+  Eigen::MatrixXd N = face_normals(m.V, m.F);
+  EXPECT_NEAR(N(0, 2), -1.0, 1e-12);  // bottom face points down (outward)
+  Eigen::MatrixXd VN = vertex_normals(m.V, m.F);
+  for (int i = 0; i < 4; ++i) EXPECT_NEAR(VN.row(i).norm(), 1.0, 1e-12);
+}
+
+TEST(Mesh, Normalizations) {
+  TriMesh m = tetrahedron_surface();
+  m.V *= 3.0;
+  Normalization n = unit_area_normalization(m);
+  Eigen::MatrixXd W = n.apply(m.V);
+  EXPECT_NEAR(surface_area(W, m.F), 1.0, 1e-12);
+  EXPECT_LT((n.undo(W) - m.V).norm(), 1e-12);
+  TetMesh cube = unit_cube_tets();
+  cube.V *= 2.0;
+  Normalization nv = unit_volume_normalization(cube);
+  EXPECT_NEAR(signed_volume(nv.apply(cube.V), cube.T), 1.0, 1e-12);
+  EXPECT_LT(nv.center.norm() - std::sqrt(3.0), 1e-12);  // centre (1,1,1)
+}
+
+TEST(Adjacency, EdgesAndComponents) {
+  TriMesh m = tetrahedron_surface();
+  Eigen::MatrixXi FE;
+  Eigen::MatrixXi E = unique_edges(m.F, &FE);
+  EXPECT_EQ(E.rows(), 6);
+  Eigen::MatrixXi EF = edge_faces(m.F, E, FE);
+  for (int e = 0; e < 6; ++e) {
+    EXPECT_GE(EF(e, 0), 0);
+    EXPECT_GE(EF(e, 2), 0);  // closed: two faces per edge
+    // The corner opposite the edge is not one of its endpoints.
+    int v = m.F(EF(e, 0), EF(e, 1));
+    EXPECT_TRUE(v != E(e, 0) && v != E(e, 1));
+  }
+  auto nb = vertex_neighbors(m.F, 4);
+  for (auto& a : nb) EXPECT_EQ(a.size(), 3u);
+  // Two disjoint triangles: two components.
+  Eigen::MatrixXi F2(2, 3);
+  F2 << 0, 1, 2, 3, 4, 5;
+  int nc = 0;
+  Eigen::VectorXi c = connected_components(F2, 6, &nc);
+  EXPECT_EQ(nc, 2);
+  EXPECT_NE(c(0), c(3));
+}
