@@ -1,12 +1,233 @@
-// shapemap volume-map: Symmetric volume map between two tetrahedral meshes
+// shapemap volume-map: symmetric volume maps between two tetrahedral meshes
+// (symmetric-volume-maps.txt). Inputs: tet meshes (.mesh .vtk .msh .node/.ele) or closed
+// genus-0 surfaces (.obj .off .ply .stl, tetrahedralized first).
+//
+//   shapemap volume-map A B -o OUT [--init auto|landmarks|surface-map]
+//                       [--landmarks LA LB] [--surface-map MAP_AB MAP_BA]
+//
+// Writes OUT/map_AB.txt, map_BA.txt (vertex -> target tet + barycentric), A_on_B.vtk,
+// B_on_A.vtk (source connectivity, mapped positions in the target's coordinates) and
+// report.json (inputs, parameters, per-stage timings, Table 3 metrics per direction).
 #include "common.h"
+#include "shapemap/checks.h"
+#include "shapemap/error.h"
+#include "shapemap/eval/volume_metrics.h"
+#include "shapemap/io.h"
+#include "shapemap/maps.h"
+#include "shapemap/volume/symmetric_map.h"
+#include "shapemap/volume/tetrahedralize.h"
+#include <Eigen/Dense>
+#include <memory>
 
 namespace shapemap::cli {
+
+namespace {
+
+struct VolumeInput {
+  TetMesh mesh;
+  bool from_surface = false;
+  TriMesh surface;  // the input surface when from_surface
+};
+
+VolumeInput load_volume_input(const std::string& path, const std::string& name, int tets,
+                              const ProgressCallback& progress, const GlobalOptions& g) {
+  VolumeInput in;
+  if (is_volume_path(path)) {
+    in.mesh = read_volume(path);
+  } else if (is_surface_path(path)) {
+    in.surface = read_surface(path);
+    require_genus0_surface(in.surface, path);
+    TetrahedralizeOptions to;
+    to.target_tets = tets;
+    to.seed = unsigned(g.seed);
+    in.mesh = tetrahedralize(in.surface, to, progress);
+    in.from_surface = true;
+  } else {
+    throw InputError(path + ": unknown extension (tet mesh: .mesh .vtk .msh .node .ele; "
+                            "surface: .obj .off .ply .stl)");
+  }
+  MeshReport rep = check_volume(in.mesh);
+  int bad = rep.inverted_elements + rep.degenerate_elements;
+  if (bad > 0)
+    info(g, path + ": " + std::to_string(rep.inverted_elements) + " inverted and " +
+                std::to_string(rep.degenerate_elements) + " degenerate tets of " +
+                std::to_string(rep.num_elements));
+  require_valid_volume(in.mesh, path, 0.01);
+  return in;
+}
+
+nlohmann::json metrics_json(const VolumeMapMetrics& m) {
+  nlohmann::json j;
+  j["num_tets"] = m.num_tets;
+  j["n_inv"] = m.n_inv;
+  j["inverted_fraction"] = m.inverted_fraction;
+  j["d_max_hat"] = m.d_max;
+  j["d_avg_hat"] = m.d_avg;
+  j["det_J_mean"] = m.det_mean;
+  j["det_J_sd"] = m.det_sd;
+  j["E_ARAP"] = m.E_arap;
+  if (!std::isnan(m.E_R)) j["E_R"] = m.E_R;
+  if (m.has_truth) {
+    j["truth_error_mean"] = m.truth_mean;
+    j["truth_error_max"] = m.truth_max;
+  }
+  return j;
+}
+
+}  // namespace
+
+nlohmann::json volume_metrics_json(const VolumeMapMetrics& m) { return metrics_json(m); }
 
 Command register_volume_map(CLI::App& app, GlobalOptions& g) {
   Command c;
   c.app = app.add_subcommand("volume-map", "Symmetric volume map between two tetrahedral meshes");
-  c.run = [] { return not_built("'volume-map'"); };
+  struct Args {
+    std::string A, B, out, init;
+    std::vector<std::string> landmarks, surface_map;
+    int tets = 0;
+    SymmetricVolumeMapOptions opt;
+  };
+  auto a = std::make_shared<Args>();
+  c.app->add_option("A", a->A, "Source: tet mesh or closed surface")->required();
+  c.app->add_option("B", a->B, "Target: tet mesh or closed surface")->required();
+  c.app->add_option("-o,--output", a->out, "Output folder")->required();
+  c.app->add_option("--init", a->init, "Initialization: auto (surface map by BIM + elastic), "
+                                       "landmarks, surface-map (default: landmarks if given, "
+                                       "else surface-map if given, else auto)")
+      ->check(CLI::IsMember({"auto", "landmarks", "surface-map"}));
+  c.app->add_option("--landmarks", a->landmarks, "Landmark files LA LB (vertex index or x y z per line)")
+      ->expected(2);
+  c.app->add_option("--surface-map", a->surface_map,
+                    "Surface map files MAP_AB MAP_BA between the boundary surfaces (or the input surfaces)")
+      ->expected(2);
+  c.app->add_option("--tets", a->tets, "Target tet count when tetrahedralizing surfaces (0: default)");
+  c.app->add_option("--alpha", a->opt.alpha, "Eq. 25 rigidity weight alpha")->capture_default_str();
+  c.app->add_option("--gamma", a->opt.gamma, "Eq. 25 projection weight gamma")->capture_default_str();
+  c.app->add_option("--beta-start", a->opt.beta_start, "Eq. 25 beta at the first iteration")->capture_default_str();
+  c.app->add_option("--beta-end", a->opt.beta_end, "Eq. 25 beta after the ramp")->capture_default_str();
+  c.app->add_option("--max-iterations", a->opt.max_iterations, "Outer iterations per stage (Sec. 5.4)")
+      ->capture_default_str();
+  c.app->add_option("--xstep-iterations", a->opt.xstep_iterations, "L-BFGS iterations per X-step")
+      ->capture_default_str();
+  c.app->add_flag("--boundary-to-boundary", a->opt.boundary_to_boundary,
+                  "Hard boundary constraint in the P-step (Sec. 5.2)");
+
+  c.run = [a, &g]() -> int {
+    StageTimer timer;
+    ProgressCallback progress = make_progress(g);
+    OutputDir out(a->out);
+    std::string init = a->init;
+    if (init.empty()) init = !a->landmarks.empty() ? "landmarks" : !a->surface_map.empty() ? "surface-map" : "auto";
+    if (init == "landmarks" && a->landmarks.size() != 2)
+      throw InputError("--init landmarks: needs --landmarks LA LB");
+    if (init == "surface-map" && a->surface_map.size() != 2)
+      throw InputError("--init surface-map: needs --surface-map MAP_AB MAP_BA");
+
+    timer.start("load");
+    VolumeInput inA = load_volume_input(a->A, "A", a->tets, progress, g);
+    VolumeInput inB = load_volume_input(a->B, "B", a->tets, progress, g);
+    const TetMesh& A = inA.mesh;
+    const TetMesh& B = inB.mesh;
+    TetBoundary bA = boundary_surface(A), bB = boundary_surface(B);
+
+    timer.start("init");
+    BarycentricMap i12, i21;
+    std::string init_detail = init;
+    if (init == "landmarks") {
+      std::vector<int> candA(bA.to_volume.data(), bA.to_volume.data() + bA.to_volume.size());
+      std::vector<int> candB(bB.to_volume.data(), bB.to_volume.data() + bB.to_volume.size());
+      std::vector<int> LA = read_landmarks(a->landmarks[0], A.V, candA);
+      std::vector<int> LB = read_landmarks(a->landmarks[1], B.V, candB);
+      if (LA.size() != LB.size())
+        throw InputError(a->landmarks[1] + ": " + std::to_string(LB.size()) + " landmarks but " +
+                         a->landmarks[0] + " has " + std::to_string(LA.size()));
+      i12 = landmark_initial_map(A, B, LA, LB);
+      i21 = landmark_initial_map(B, A, LB, LA);
+    } else {
+      // The surfaces the surface map lives on.
+      auto pick = [](const VolumeInput& in, const TetBoundary& bd, int n, const std::string& file) {
+        if (n == bd.surface.num_vertices()) return bd.surface;
+        if (in.from_surface && n == in.surface.num_vertices()) return in.surface;
+        throw InputError(file + ": " + std::to_string(n) + " rows, but the boundary surface has " +
+                         std::to_string(bd.surface.num_vertices()) + " vertices");
+      };
+      BarycentricMap sAB, sBA;
+      TriMesh SA, SB;
+      if (init == "surface-map") {
+        sAB = read_map(a->surface_map[0]);
+        sBA = read_map(a->surface_map[1]);
+        SA = pick(inA, bA, sAB.size(), a->surface_map[0]);
+        SB = pick(inB, bB, sBA.size(), a->surface_map[1]);
+      } else {
+        SA = inA.from_surface ? inA.surface : bA.surface;
+        SB = inB.from_surface ? inB.surface : bB.surface;
+        if (!inA.from_surface) require_genus0_surface(SA, a->A + " (boundary)");
+        if (!inB.from_surface) require_genus0_surface(SB, a->B + " (boundary)");
+        std::string used;
+        std::tie(sAB, sBA) = surface_map_for_volumes(SA, SB, progress, &used);
+        init_detail = "auto (" + used + ")";
+      }
+      i12 = surface_initial_map(A, B, SA, SB, sAB);
+      i21 = surface_initial_map(B, A, SB, SA, sBA);
+    }
+
+    timer.start("optimize");
+    SymmetricVolumeMapResult r = symmetric_volume_map(A, B, i12, i21, a->opt, progress);
+
+    timer.start("metrics");
+    VolumeMapMetrics m12 = volume_map_metrics(A, B, r.X12, &r.map12, &r.X21);
+    VolumeMapMetrics m21 = volume_map_metrics(B, A, r.X21, &r.map21, &r.X12);
+
+    timer.start("write");
+    write_map(out.path("map_AB.txt"), r.map12);
+    write_map(out.path("map_BA.txt"), r.map21);
+    auto detn = [](const TetMesh& src, const Eigen::MatrixXd& X) {
+      Eigen::VectorXd d(src.num_tets());
+      for (int k = 0; k < src.num_tets(); ++k) {
+        Eigen::Matrix3d Dm, Ds;
+        for (int j = 0; j < 3; ++j) {
+          Dm.col(j) = (src.V.row(src.T(k, j + 1)) - src.V.row(src.T(k, 0))).transpose();
+          Ds.col(j) = (X.row(src.T(k, j + 1)) - X.row(src.T(k, 0))).transpose();
+        }
+        d(k) = Ds.determinant() / Dm.determinant();  // volume ratio (<= 0: inverted)
+      }
+      return d;
+    };
+    write_vtk(out.path("A_on_B.vtk"), TetMesh{r.X12, A.T}, {}, {{"volume_ratio", detn(A, r.X12)}});
+    write_vtk(out.path("B_on_A.vtk"), TetMesh{r.X21, B.T}, {}, {{"volume_ratio", detn(B, r.X21)}});
+    timer.stop();
+
+    nlohmann::json j = report_header(g, "volume-map");
+    j["inputs"] = {{"A", a->A}, {"B", a->B}, {"A_vertices", A.num_vertices()}, {"A_tets", A.num_tets()},
+                   {"B_vertices", B.num_vertices()}, {"B_tets", B.num_tets()},
+                   {"A_tetrahedralized", inA.from_surface}, {"B_tetrahedralized", inB.from_surface}};
+    const auto& o = a->opt;
+    j["parameters"] = {{"init", init_detail}, {"alpha", o.alpha}, {"gamma", o.gamma},
+                       {"beta_start", o.beta_start}, {"beta_end", o.beta_end},
+                       {"beta_ramp_iterations", o.beta_ramp_iterations},
+                       {"max_iterations", o.max_iterations}, {"xstep_iterations", o.xstep_iterations},
+                       {"grad_tol", o.grad_tol}, {"decrease_tol", o.decrease_tol},
+                       {"repair_rings", o.repair_rings}, {"post_repair_steps", o.post_repair_steps},
+                       {"boundary_to_boundary", o.boundary_to_boundary}};
+    nlohmann::json stages = nlohmann::json::array();
+    for (auto& s : r.stages)
+      stages.push_back({{"name", s.name}, {"iterations", s.iterations}, {"seconds", s.seconds},
+                        {"energy", s.energy}, {"n_inv_AB", s.inverted12}, {"n_inv_BA", s.inverted21},
+                        {"seconds_P_step", s.time_pstep}, {"seconds_X_step", s.time_xstep},
+                        {"lbfgs_iterations", s.lbfgs_iterations}, {"evaluations", s.evaluations}});
+    j["algorithm_stages"] = stages;
+    j["energy"] = {{"E", r.E}, {"E_ARAP", r.E_arap}, {"E_R", r.E_R}, {"E_P", r.E_P}, {"E_Q", r.E_Q},
+                   {"outer_iterations", r.iterations}};
+    j["metrics"] = {{"AB", metrics_json(m12)}, {"BA", metrics_json(m21)}};
+    j["timings"] = timer.json();
+    write_json(out.path("report.json"), j);
+    out.commit();
+    info(g, "volume-map: n_inv " + std::to_string(m12.n_inv) + " / " + std::to_string(m21.n_inv) +
+                ", d_avg^ " + std::to_string(m12.d_avg) + " / " + std::to_string(m21.d_avg) +
+                ", |det J| " + std::to_string(m12.det_mean) + " / " + std::to_string(m21.det_mean) +
+                ", " + std::to_string(timer.total()) + " s -> " + a->out);
+    return 0;
+  };
   return c;
 }
 

@@ -1,6 +1,7 @@
 #include "common.h"
 #include "shapemap/error.h"
 #include "shapemap/io.h"
+#include "shapemap/render/report_html.h"
 #include <omp.h>
 #include <unistd.h>
 #include <cstdio>
@@ -124,6 +125,17 @@ nlohmann::json report_header(const GlobalOptions& g, const std::string& command)
 
 void write_json(const std::string& path, const nlohmann::json& j) {
   write_text_atomic(path, j.dump(2) + "\n");
+}
+
+void write_reports(const OutputDir& out, const nlohmann::json& report, const std::string& title,
+                   const std::vector<ReportFigure>& figures) {
+  write_json(out.path("report.json"), report);
+  std::vector<Figure> figs;
+  for (auto& f : figures) {
+    write_png(out.path(f.file), f.image);
+    figs.push_back({f.caption, f.image});
+  }
+  write_report_html(out.path("report.html"), title, report, figs);
 }
 
 int not_built(const std::string& what) {

@@ -2,6 +2,7 @@
 // output folders, report.json, and error handling.
 #pragma once
 #include "shapemap/progress.h"
+#include "shapemap/render/image.h"
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 #include <chrono>
@@ -77,6 +78,20 @@ Command register_evaluate(CLI::App& app, GlobalOptions& g);
 Command register_render(CLI::App& app, GlobalOptions& g);
 Command register_demo(CLI::App& app, GlobalOptions& g);
 Command register_check(CLI::App& app, GlobalOptions& g);
+
+// Runs the tool in-process on an argument list (args[0] is the program name) with
+// fresh options: parse, dispatch, map exceptions to exit codes. main() and the demo
+// (which scripts the subcommands) both go through it.
+int run(const std::vector<std::string>& args);
+
+// Writes report.json and, beside it, report.html with the given pictures (self-contained).
+// Each figure (caption, picture) is also saved as a PNG named by `file` in OUT.
+struct ReportFigure {
+  std::string file, caption;
+  Image image;
+};
+void write_reports(const OutputDir& out, const nlohmann::json& report, const std::string& title,
+                   const std::vector<ReportFigure>& figures = {});
 
 // For subcommands whose method is not built yet: message, exit 1.
 int not_built(const std::string& what);

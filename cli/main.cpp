@@ -1,47 +1,7 @@
 // shapemap: dense correspondences between 3D shapes. Exit codes: 0 success,
 // 2 bad input (one line on stderr naming the file and the problem), 1 internal failure.
 #include "common.h"
-#include "shapemap/error.h"
-#include <iostream>
-
-using namespace shapemap;
-using namespace shapemap::cli;
 
 int main(int argc, char** argv) {
-  CLI::App app{"shapemap: dense correspondences between 3D shapes (surfaces and volumes)"};
-  app.require_subcommand(1);
-  GlobalOptions g;
-  app.add_flag("-q,--quiet", g.quiet, "No progress or messages on stderr");
-  app.add_option("--threads", g.threads, "Worker threads (0 = all cores)")->check(CLI::NonNegativeNumber);
-  app.add_option("--seed", g.seed, "Random seed: the same input and seed give the same output");
-  app.set_version_flag("--version", "shapemap 0.1.0");
-
-  std::vector<Command> commands = {
-      register_surface_map(app, g), register_volume_map(app, g), register_ball(app, g),
-      register_register(app, g),    register_tetrahedralize(app, g), register_generate(app, g),
-      register_evaluate(app, g),    register_render(app, g),     register_demo(app, g),
-      register_check(app, g)};
-  for (auto& c : commands) c.app->fallthrough();
-
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    int code = app.exit(e);
-    return code == 0 ? 0 : 2;
-  }
-  try {
-    apply_threads(g);
-    for (auto& c : commands)
-      if (c.app->parsed()) return c.run();
-    return 2;
-  } catch (const InputError& e) {
-    std::cerr << "shapemap: error: " << e.what() << "\n";
-    return 2;
-  } catch (const std::bad_alloc&) {
-    std::cerr << "shapemap: internal error: out of memory\n";
-    return 1;
-  } catch (const std::exception& e) {
-    std::cerr << "shapemap: internal error: " << e.what() << "\n";
-    return 1;
-  }
+  return shapemap::cli::run(std::vector<std::string>(argv, argv + argc));
 }

@@ -10,13 +10,16 @@ namespace shapemap {
 // Surfaces by extension: .obj .off .ply (ASCII, binary little/big endian) .stl (ASCII, binary).
 // Polygons with more than 3 vertices are fan-triangulated.
 TriMesh read_surface(const std::string& path);
-void write_surface(const std::string& path, const TriMesh& mesh);  // .obj .off .ply .stl
+// .obj .off .ply (binary little endian, double) .stl (binary, float). See docs/formats.md.
+void write_surface(const std::string& path, const TriMesh& mesh);
 
 // Volumes by extension: .mesh (Medit), .vtk (legacy unstructured grid, ASCII or binary),
-// .msh (gmsh v2 ASCII/binary? v2 and v4 ASCII), .node/.ele (TetGen; either name given).
-// Tets are reoriented to positive volume if all are negative.
+// .msh (gmsh v2 and v4 ASCII), .node/.ele (TetGen; either name given).
+// Tets are reoriented (all of them) to positive volume if most are negative.
+// Vertices keep the file's numbering (vertices used by no tet are kept).
 TetMesh read_volume(const std::string& path);
-void write_volume(const std::string& path, const TetMesh& mesh);   // .vtk .mesh .msh .node/.ele
+// .vtk (ASCII) .mesh .msh (v2.2 ASCII) .node/.ele (TetGen: both files are written).
+void write_volume(const std::string& path, const TetMesh& mesh);
 // A VTK file with per-point or per-cell scalar fields attached (for viewers).
 void write_vtk(const std::string& path, const TetMesh& mesh,
                const std::vector<std::pair<std::string, Eigen::VectorXd>>& point_data = {},
@@ -34,5 +37,7 @@ std::vector<int> read_landmarks(const std::string& path, const Eigen::MatrixXd& 
 
 // Writes `text` to path atomically (temporary name in the same folder, then rename).
 void write_text_atomic(const std::string& path, const std::string& text);
+// The same for binary content (bytes written verbatim).
+void write_binary_atomic(const std::string& path, const std::string& bytes);
 
 }  // namespace shapemap

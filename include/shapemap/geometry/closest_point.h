@@ -32,6 +32,20 @@ class ClosestPointBVH {
   std::vector<ClosestPointResult> query(const Eigen::MatrixXd& P) const;
   int arity() const { return arity_; }
 
+  // Additions (backward compatible):
+  // Warm start: hint is an element index expected to be close to p (e.g. the previous
+  // iteration's answer, -1 = none). The answer is the same exact closest point; a good
+  // hint only tightens the initial bound, so fewer boxes are visited.
+  ClosestPointResult query(const Point& p, int hint) const;
+  // Rows of P (k×D) in parallel into a caller-owned vector (resized to k; no allocation
+  // when it already has k entries). If use_hints, out[i].elem on entry is the hint for
+  // row i (as above).
+  void query(const Eigen::MatrixXd& P, std::vector<ClosestPointResult>& out,
+             bool use_hints = false) const;
+  int num_elements() const { return int(E_.rows()); }
+  const Eigen::MatrixXd& vertices() const { return V_; }
+  const Eigen::MatrixXi& elements() const { return E_; }
+
  private:
   struct Node {
     Eigen::Matrix<double, D, 1> lo, hi;
@@ -43,6 +57,13 @@ class ClosestPointBVH {
   int arity_ = 3;
   std::vector<Node> nodes_;
   std::vector<int> order_;
+  // Element vertex coordinates packed in leaf order: element order_[k] occupies
+  // packed_[(k*arity_ + j)*D + d] (vertex j, coordinate d); filled by build/refit, so the
+  // leaf tests read contiguous memory.
+  std::vector<double> packed_;
+  void pack();
+  void test_leaf(const Point& p, const Node& node, ClosestPointResult& best) const;
+  void test_elem(const Point& p, int k, ClosestPointResult& best) const;
   int build_node(int begin, int end, std::vector<Eigen::Matrix<double, D, 1>>& centroids);
   void refit_node(int n);
 };

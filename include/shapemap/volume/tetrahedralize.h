@@ -12,6 +12,9 @@ struct TetrahedralizeOptions {
   bool faithful_boundary = true;   // protect and keep the input surface (polyhedral domain)
   bool optimize = true;            // ODT/perturbation/exudation to remove slivers
   unsigned seed = 0;
+  bool odt = false;                // also CGAL ODT smoothing before perturb/exude (slower)
+  double sliver_bound = 10;        // perturb/exude target: smallest dihedral angle (degrees)
+  double optimize_time_limit = 0;  // seconds per sliver step; 0 = none (keeps runs deterministic)
 };
 
 // V, F: closed, manifold, consistently oriented surface. Throws InputError if not.

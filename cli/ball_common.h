@@ -1,0 +1,82 @@
+// Shared pieces of `shapemap ball`, `shapemap register` and `shapemap evaluate ball`:
+// loading a volume (tet mesh, or closed surface tetrahedralized first) and the JSON of
+// the ball-map metrics.
+#pragma once
+#include "common.h"
+#include "shapemap/checks.h"
+#include "shapemap/error.h"
+#include "shapemap/eval/ball_metrics.h"
+#include "shapemap/io.h"
+#include "shapemap/volume/ball_param.h"
+#include "shapemap/volume/tetrahedralize.h"
+#include <string>
+
+namespace shapemap::cli {
+
+// A tet mesh from `path`: read directly (.vtk .mesh .msh .node .ele), or a closed genus-0
+// surface (.obj .off .ply .stl) tetrahedralized with about `tets` tets (0: default).
+inline TetMesh load_volume_or_surface(const std::string& path, int tets, bool* tetrahedralized,
+                                      const ProgressCallback& progress) {
+  if (tetrahedralized) *tetrahedralized = false;
+  if (is_volume_path(path)) return read_volume(path);
+  if (!is_surface_path(path))
+    throw InputError(path + ": unknown mesh format (use .vtk .mesh .msh .node .ele, or a closed surface .obj .off .ply .stl)");
+  TriMesh s = read_surface(path);
+  require_genus0_surface(s, path);
+  TetrahedralizeOptions o;
+  o.target_tets = tets;
+  if (tetrahedralized) *tetrahedralized = true;
+  return tetrahedralize(s, o, progress);
+}
+
+inline nlohmann::json ball_metrics_json(const BallMetrics& m) {
+  nlohmann::json j;
+  j["num_vertices"] = m.num_vertices;
+  j["num_tets"] = m.num_tets;
+  j["num_boundary_vertices"] = m.num_boundary_vertices;
+  j["D_V"] = {{"mean", m.dv_mean}, {"sd", m.dv_sd},   {"p25", m.dv_p25}, {"p50", m.dv_p50},
+              {"p75", m.dv_p75},   {"p95", m.dv_p95}, {"max", m.dv_max}};
+  j["E_I"] = m.energy;
+  j["folded_tets"] = m.folded_tets;
+  j["positive_tets"] = m.positive_tets;
+  j["negative_tets"] = m.negative_tets;
+  j["boundary_sphere_error"] = m.boundary_sphere_error;
+  j["max_radius"] = m.max_radius;
+  return j;
+}
+
+inline nlohmann::json ball_result_json(const BallParamResult& r) {
+  nlohmann::json j;
+  j["E_I_after_vsem"] = r.energy_vsem;
+  j["E_I_final"] = r.energy_final;
+  j["iterations"] = r.iterations;
+  j["converged"] = r.converged;
+  j["quadratic_steps"] = r.quadratic_steps;
+  j["wolfe_steps"] = r.wolfe_steps;
+  j["restarts"] = r.restarts;
+  j["frame_rotations"] = r.frame_rotations;
+  j["evaluations"] = r.evaluations;
+  j["sphere_map_folded_faces"] = r.sphere_folded_faces;
+  j["inverted_tets_after_vsem"] = r.inverted_vsem;
+  j["seconds"] = {{"total", r.seconds_total},      {"sphere_map", r.seconds_sphere},
+                  {"vsem", r.seconds_vsem},        {"preconditioner_factor", r.seconds_factor},
+                  {"cg", r.seconds_cg},            {"cg_preconditioner_solves", r.seconds_cg_solve},
+                  {"cg_energy_gradient", r.seconds_cg_eval},
+                  {"cg_per_iteration", r.iterations ? r.seconds_cg / r.iterations : 0.0},
+                  {"cg_cpu", r.cpu_seconds_cg}};
+  return j;
+}
+
+inline void add_ball_options(CLI::App* app, BallParamOptions& o) {
+  app->add_option("--max-iterations", o.max_iterations, "MaxIter of the nonlinear CG (paper: 500)")
+      ->check(CLI::NonNegativeNumber);
+  app->add_option("--tolerance", o.tolerance, "Stop when E_old - E_new < tol (paper: 1e-6)")
+      ->check(CLI::NonNegativeNumber);
+  app->add_option("--vsem-iterations", o.vsem_iterations, "VSEM fixed-point updates (paper: 15)")
+      ->check(CLI::NonNegativeNumber);
+  app->add_flag("!--no-ast", o.anisotropic_scaling, "Skip the anisotropic scaling (Eq. 11)");
+  app->add_flag("--prevent-new-folds", o.prevent_new_folds,
+                "Halve CG steps that would increase the number of inverted tets");
+}
+
+}  // namespace shapemap::cli

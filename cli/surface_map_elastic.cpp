@@ -1,0 +1,247 @@
+// shapemap surface-map --method elastic: elastic, crease-aware correspondence
+// (elastic-correspondence.txt) initialized by BIM, landmarks or a given map.
+#include "surface_map_elastic.h"
+
+#include "shapemap/checks.h"
+#include "shapemap/error.h"
+#include "shapemap/eval/surface_distortion.h"
+#include "shapemap/eval/surface_metrics.h"
+#include "shapemap/geometry/closest_point.h"
+#include "shapemap/io.h"
+#include "shapemap/maps.h"
+#include "shapemap/surface/bim.h"
+#include "shapemap/surface/elastic.h"
+
+#include <algorithm>
+#include <filesystem>
+
+namespace shapemap::cli {
+
+namespace fs = std::filesystem;
+
+void add_elastic_options(CLI::App* app, ElasticCliOptions& o) {
+  app->add_option("--elastic-preset", o.preset,
+                  "elastic: bending weight preset (Sec. 5.2/6.1): non-isometric (eta 0.1), "
+                  "near-isometric (0.01), degenerate (0.002, for degenerate initial maps)")
+      ->check(CLI::IsMember({"non-isometric", "near-isometric", "degenerate"}));
+  app->add_option("--elastic-eta", o.eta, "elastic: bending weight eta (Eq. 2), overrides the preset")
+      ->check(CLI::NonNegativeNumber);
+  app->add_option("--elastic-alpha", o.alpha, "elastic: membrane weight alpha (Eq. 2)")
+      ->check(CLI::NonNegativeNumber);
+  app->add_option("--elastic-iterations", o.iterations, "elastic: outer iterations K (Algorithm 1)")
+      ->check(CLI::NonNegativeNumber);
+  app->add_flag("--elastic-injective", o.injective,
+                "elastic: locally injective model E_inj (Eq. 4) instead of E_bij (Eq. 6)");
+  app->add_flag("--elastic-partial", o.partial,
+                "elastic: partial matching (Sec. 6.2): no unit-area scaling");
+  app->add_option("--truth", o.truth_ab,
+                  "ground-truth map A->B (map file) for the geodesic error in report.json");
+}
+
+namespace {
+
+// Q from P: every vertex of B onto the mapped surface P X~ (A's triangulation) by
+// closest point, giving a face of A and barycentric coordinates.
+BarycentricMap invert_map(const BarycentricMap& P, const TriMesh& A, const TriMesh& B) {
+  const Eigen::MatrixXd Y = map_positions(P, B.V, B.F);
+  ClosestPoint3 bvh(Y, A.F);
+  const auto res = bvh.query(B.V);
+  BarycentricMap Q;
+  Q.elem.resize(B.num_vertices());
+  Q.bary.resize(B.num_vertices(), 3);
+  for (int i = 0; i < B.num_vertices(); ++i) {
+    Q.elem(i) = res[i].elem;
+    Eigen::RowVector3d b = res[i].bary.head<3>().transpose().cwiseMax(0.0);
+    const double s = b.sum();
+    Q.bary.row(i) = s > 0 ? Eigen::RowVector3d(b / s) : Eigen::RowVector3d(1, 0, 0);
+  }
+  return Q;
+}
+
+BarycentricMap read_checked_map(const std::string& path, int n_source, int m_target) {
+  BarycentricMap m = read_map(path);
+  validate_map(m, n_source, m_target, 3, path);
+  return m;
+}
+
+nlohmann::json distortion_json(const TriMesh& S, const TriMesh& T, const BarycentricMap& P,
+                               const BarycentricMap* Q, const BarycentricMap* truth) {
+  const SurfaceDistortion d = surface_distortion(S, T, P);
+  nlohmann::json j;
+  j["conformal_distortion_mean"] = d.conformal_mean;      // Sec. 6.1, MIPS - 2
+  j["conformal_distortion_median"] = d.conformal_median;
+  j["area_distortion_mean_abs"] = d.area_mean_abs;        // Sec. 6.1, |log(a/a^)|
+  j["area_distortion_median_abs"] = d.area_median_abs;
+  j["mean_curvature_error"] = d.mean_curvature_error;     // Sec. 6.1, |P H~ - H|_X
+  j["flipped_triangles"] = d.flipped;
+  j["degenerate_triangles"] = d.degenerate;
+  if (Q && Q->size() > 0) j["reversibility"] = reversibility_error(S, T, P, *Q);  // |PQX - X|_X
+  if (truth) {
+    const SurfaceErrorCurve c = surface_map_error(P, *truth, T.V, T.F);
+    j["geodesic_error_mean"] = c.mean;
+    j["geodesic_error_max"] = c.max;
+    j["geodesic_within_0_1"] = c.within_0_1;
+  }
+  return j;
+}
+
+}  // namespace
+
+int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions& o,
+                            const GlobalOptions& g) {
+  StageTimer timer;
+  timer.start("read");
+  TriMesh A = read_surface(args.A), B = read_surface(args.B);
+  {
+    // The same input guard as BIM (closed, manifold, connected, genus 0); the maps
+    // refer to the faces as given, so the checked (possibly reoriented) copies are dropped.
+    TriMesh a = A, b = B;
+    require_genus0_surface(a, args.A);
+    require_genus0_surface(b, args.B);
+  }
+  BarycentricMap truth;
+  const bool has_truth = !o.truth_ab.empty();
+  if (has_truth) truth = read_checked_map(o.truth_ab, A.num_vertices(), B.num_faces());
+  OutputDir out(args.out);
+
+  // Initial maps.
+  timer.start("init");
+  BarycentricMap initAB, initBA;
+  std::string init_kind;
+  const bool bij = !o.injective;
+  if (!args.landmarks.empty()) {
+    if (args.landmarks.size() != 2) throw InputError("--landmarks: expected two files LA LB");
+    const std::vector<int> la = read_landmarks(args.landmarks[0], A.V);
+    const std::vector<int> lb = read_landmarks(args.landmarks[1], B.V);
+    if (la.size() != lb.size())
+      throw InputError(args.landmarks[1] + ": " + std::to_string(lb.size()) +
+                       " landmarks, but " + args.landmarks[0] + " has " + std::to_string(la.size()));
+    BIMOptions bo = args.bim;
+    bo.name_A = args.A;
+    bo.name_B = args.B;
+    landmark_initial_maps(A, B, la, lb, initAB, initBA, &bo);
+    init_kind = "landmarks (BIM over landmark triplets)";
+  } else if (args.init.empty() || args.init == "bim") {
+    BIMOptions bo = args.bim;
+    bo.landmarks_A.clear();
+    bo.landmarks_B.clear();
+    bo.symmetric = true;
+    bo.name_A = args.A;
+    bo.name_B = args.B;
+    info(g, "elastic: initial maps by BIM (both directions)");
+    BIMResult r = blended_intrinsic_maps(A, B, bo, make_progress(g));
+    initAB = r.AB.map;
+    initBA = r.BA.map;
+    init_kind = "bim";
+  } else if (fs::is_directory(args.init)) {
+    const std::string ab = (fs::path(args.init) / "map_AB.txt").string();
+    const std::string ba = (fs::path(args.init) / "map_BA.txt").string();
+    if (!fs::exists(ab)) throw InputError(args.init + ": no map_AB.txt in this folder");
+    initAB = read_checked_map(ab, A.num_vertices(), B.num_faces());
+    if (fs::exists(ba)) {
+      initBA = read_checked_map(ba, B.num_vertices(), A.num_faces());
+      init_kind = "files " + ab + ", " + ba;
+    } else {
+      initBA = invert_map(initAB, A, B);
+      init_kind = "file " + ab + " (B->A by closest point on the mapped surface)";
+    }
+  } else {
+    if (!fs::exists(args.init)) throw InputError(args.init + ": no such file (--init bim|FILE)");
+    initAB = read_checked_map(args.init, A.num_vertices(), B.num_faces());
+    initBA = invert_map(initAB, A, B);
+    init_kind = "file " + args.init + " (B->A by closest point on the mapped surface)";
+  }
+
+  // Elastic refinement.
+  timer.start("elastic");
+  ElasticOptions eo;
+  if (o.preset == "near-isometric") eo = ElasticOptions::near_isometric();
+  else if (o.preset == "degenerate") eo = ElasticOptions::degenerate_init();
+  if (o.eta >= 0) eo.eta = o.eta;
+  eo.alpha = o.alpha;
+  eo.max_outer_iterations = o.iterations;
+  eo.model = bij ? ElasticModel::Bijective : ElasticModel::Injective;
+  eo.normalize_area = !o.partial;
+  eo.progress = make_progress(g);
+  const ElasticResult r = elastic_correspondence(A, B, initAB, initBA, eo);
+  if (!r.map_AB.bary.allFinite() || !r.Y.allFinite())
+    throw Error("elastic: non-finite result");  // guarded inside; never expected
+
+  // Metrics of the initial and the final maps (Sec. 6.1).
+  timer.start("metrics");
+  nlohmann::json report = report_header(g, "surface-map");
+  report["method"] = "elastic";
+  report["inputs"] = {{"A", args.A}, {"B", args.B}, {"vertices_A", A.num_vertices()},
+                      {"vertices_B", B.num_vertices()}, {"faces_A", A.num_faces()},
+                      {"faces_B", B.num_faces()}};
+  report["init"] = init_kind;
+  report["parameters"] = {{"model", bij ? "bijective (Eq. 6)" : "injective (Eq. 4)"},
+                          {"alpha", eo.alpha}, {"eta", eo.eta}, {"lambda", eo.lambda},
+                          {"mu", eo.mu}, {"log_eps", eo.log_eps},
+                          {"beta_start", eo.beta_start}, {"beta_end", eo.beta_end},
+                          {"beta_ramp_iterations", eo.beta_ramp_iterations},
+                          {"gamma", bij ? eo.gamma : 0.0},
+                          {"max_outer_iterations", eo.max_outer_iterations},
+                          {"energy_tol", eo.energy_tol},
+                          {"inner_max_iterations", eo.inner_max_iterations},
+                          {"inner_tol", eo.inner_tol}, {"unit_area", eo.normalize_area}};
+  // Energies per outer iteration, summarized: first, last, and at most 50 samples.
+  nlohmann::json en;
+  std::vector<double> E, ep, ed;
+  for (const auto& it : r.history) {
+    E.push_back(it.energy);
+    ep.push_back(it.time_projection);
+    ed.push_back(it.time_deformation);
+  }
+  if (!r.history.empty()) {
+    const auto& f = r.history.front();
+    const auto& l = r.history.back();
+    en["first"] = {{"energy", f.energy}, {"deformation", f.deformation}, {"mismatch", f.mismatch},
+                   {"reversibility", f.reversibility}, {"beta", f.beta}};
+    en["last"] = {{"energy", l.energy}, {"deformation", l.deformation}, {"mismatch", l.mismatch},
+                  {"reversibility", l.reversibility}, {"beta", l.beta}};
+    const int stride = std::max<int>(1, int(E.size() + 49) / 50);
+    nlohmann::json samples = nlohmann::json::array();
+    for (size_t k = 0; k < E.size(); k += stride) samples.push_back({{"iteration", k}, {"energy", E[k]}});
+    en["samples"] = samples;
+  }
+  report["energies"] = en;
+  const int K = std::max(1, r.outer_iterations);
+  report["elastic"] = {{"outer_iterations", r.outer_iterations}, {"converged", r.converged},
+                       {"time_setup", r.time_setup},
+                       {"time_projection", r.time_projection},
+                       {"time_deformation", r.time_deformation},
+                       {"time_per_iteration", (r.time_projection + r.time_deformation) / K},
+                       {"time_per_iteration_projection", r.time_projection / K},
+                       {"time_per_iteration_deformation", r.time_deformation / K},
+                       {"degenerate_faces_initial", r.degenerate_faces_initial},
+                       {"degenerate_faces_final", r.degenerate_faces_final}};
+  nlohmann::json metrics;
+  metrics["initial"]["AB"] = distortion_json(A, B, initAB, bij ? &initBA : nullptr,
+                                             has_truth ? &truth : nullptr);
+  metrics["final"]["AB"] = distortion_json(A, B, r.map_AB, bij ? &r.map_BA : nullptr,
+                                           has_truth ? &truth : nullptr);
+  if (bij) {
+    metrics["initial"]["BA"] = distortion_json(B, A, initBA, &initAB, nullptr);
+    metrics["final"]["BA"] = distortion_json(B, A, r.map_BA, &r.map_AB, nullptr);
+  }
+  report["metrics"] = metrics;
+
+  // Outputs.
+  timer.start("write");
+  write_map(out.path("map_AB.txt"), r.map_AB);
+  write_surface(out.path("A_on_B.obj"), TriMesh{map_positions(r.map_AB, B.V, B.F), A.F});
+  if (bij) {
+    write_map(out.path("map_BA.txt"), r.map_BA);
+    write_surface(out.path("B_on_A.obj"), TriMesh{map_positions(r.map_BA, A.V, A.F), B.F});
+  }
+  timer.stop();
+  report["timings"] = timer.json();
+  write_reports(out, report, "shapemap surface-map --method elastic");
+  out.commit();
+  info(g, "elastic: " + std::to_string(r.outer_iterations) + " outer iterations, " +
+              std::to_string(timer.total()) + " s; wrote " + out.final_path());
+  return 0;
+}
+
+}  // namespace shapemap::cli

@@ -1,0 +1,27 @@
+// Quality metrics of ball-shaped volume-preserving parameterizations
+// (isovolumetric-ball-parameterization.txt, Sec. 6: Eq. 45, Eq. 2, Tables 1-2).
+#pragma once
+#include "shapemap/mesh.h"
+
+namespace shapemap {
+
+struct BallMetrics {
+  int num_vertices = 0, num_tets = 0, num_boundary_vertices = 0;
+  // D_V(f, tau) (Eq. 45) over all tets: mean, SD, percentiles (Table 1), max.
+  double dv_mean = 0, dv_sd = 0, dv_p25 = 0, dv_p50 = 0, dv_p75 = 0, dv_p95 = 0, dv_max = 0;
+  double energy = 0;            // E_I(f) (Eq. 2)
+  int positive_tets = 0, negative_tets = 0;  // sign of |f(tau)| (zero counts as negative)
+  int folded_tets = 0;          // min(positive, negative) (Table 2 "#Foldings")
+  double boundary_sphere_error = 0;  // max over boundary vertices of | ||f(v)|| - 1 |
+  double max_radius = 0;             // max over all vertices of ||f(v)||
+};
+
+// Per-tet local volume distortion D_V(f, tau) (Eq. 45): V n×3 domain, T m×4 positively
+// oriented, f n×3 images. Returns m values.
+Eigen::VectorXd ball_volume_distortion(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T,
+                                       const Eigen::MatrixXd& f);
+
+// All metrics of the ball map f (n×3) of mesh.
+BallMetrics ball_metrics(const TetMesh& mesh, const Eigen::MatrixXd& f);
+
+}  // namespace shapemap

@@ -1,0 +1,145 @@
+// Blended Intrinsic Maps (Kim, Lipman, Funkhouser 2011): a fully automatic map between
+// two closed genus-0 surfaces, blending many conformal (Möbius) maps with smooth
+// weights b_i(p) = c_i(p) w_i (confidence × consistency), Eq. 1.
+//
+// Pipeline (section numbers of the paper):
+//   bim_prepare (per surface): checks, unit-area normalization, outward orientation;
+//     P_even by farthest-point sampling and heat geodesics from it (Sec. 5);
+//     AGD and its local maxima as feature points (Sec. 4); conformal flattening (Sec. 4).
+//   bim_map (per direction): candidate Möbius maps for all pairs of feature triplets
+//     (Sec. 4), confidence c_i at P_even (Eq. 2, Sec. 5), blending matrix S over
+//     consistent pairs (Eq. 5, Sec. 6.2), top eigenvectors, consistent groups, the
+//     blended map of each group (Sec. 7) and the one with the best integrated confidence.
+//   blended_intrinsic_maps: both, A->B (and B->A with options.symmetric).
+#pragma once
+#include "shapemap/geometry/closest_point.h"
+#include "shapemap/maps.h"
+#include "shapemap/mesh.h"
+#include "shapemap/progress.h"
+#include "shapemap/surface/conformal_flattening.h"
+#include "shapemap/surface/mobius.h"
+#include "shapemap/surface/sphere_locator.h"
+#include <Eigen/Sparse>
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace shapemap {
+
+struct BIMOptions {
+  // --- Sec. 4: feature points and candidate maps
+  int max_features = 10;            // Sec. 4: "|P_l| <= 10" AGD maxima per surface
+  int min_features = 3;             // fewer AGD maxima (e.g. a sphere): add P_even points (FPS order)
+  double feature_radius = 0.1;      // AGD maxima must be maximal within this geodesic radius
+                                    // (unit-area surfaces); our choice, the paper gives none
+  int max_candidates = 10000;       // Sec. 6.2: "we randomly remove maps until we are left with 10,000"
+  // --- Sec. 5: confidence
+  int num_even = 256;               // Sec. 5: |P_even| = 256 farthest-point samples
+  double interpolation_sigma = 0;   // Sec. 5: Gaussian interpolation width; 0 = 1/sqrt(num_even)
+                                    // (the sample spacing on a unit-area surface)
+  // --- Sec. 6: consistency
+  double sigma = 0.5;               // Eq. 4/5: sigma = 0.5
+  double eigenvalue_fraction = 0.75;  // Sec. 6.2: eigenvalues within 75% of the top one (>= 0.75 λ1)
+  double entry_fraction = 0.25;     // Sec. 6.2: "high entries (top 25%)": |w_i| >= 0.25 max |w|
+  int num_eigenvectors = 8;         // how many top eigenpairs to compute (Spectra)
+  int max_groups = 16;              // at most this many consistent groups are blended and compared
+  bool symmetrize_consistency = true;  // S_ij := (S_ij + S_ji)/2 (Eq. 5 is not symmetric)
+  double consistency_skip = 1e-3;   // skip P_even points where c_i c_j < this (their term is < this)
+  // --- Sec. 7: blend and output
+  bool symmetric = false;           // also the map B -> A
+  // --- general
+  std::uint64_t seed = 1;           // random first P_even vertex, candidate pruning
+  double heat_t_factor = 1.0;       // heat method t = factor * h^2
+  int min_vertices = 100;           // input guard
+  std::string name_A = "A", name_B = "B";  // names used in error messages (file paths)
+  // Known correspondences (landmarks): if non-empty, feature points are these vertex
+  // pairs and the candidates are all triplets of them (no permutations).
+  std::vector<int> landmarks_A, landmarks_B;
+};
+
+// A surface prepared for BIM (all in the normalized frame: unit area, area centroid at 0).
+struct BIMSurface {
+  TriMesh mesh;                     // normalized, outward oriented
+  Eigen::MatrixXd V_input;          // vertices as given
+  Eigen::MatrixXi F_input;          // faces as given (before orientation fixes)
+  Normalization normalization;
+  Eigen::VectorXd mass;             // lumped vertex areas (sum 1)
+  std::vector<int> even;            // P_even (Sec. 5), FPS order
+  std::vector<int> even_chain;      // P_even visiting order (nearest-neighbour tour) for walks
+  Eigen::MatrixXd even_dist;        // n × |P_even| heat geodesic distances
+  Eigen::SparseMatrix<double, Eigen::RowMajor> interp;  // n × |P_even| Gaussian weights, rows sum 1
+  Eigen::VectorXd agd;              // average geodesic distance (Sec. 4)
+  std::vector<int> features;        // feature vertices (AGD maxima, or landmarks)
+  ConformalFlattening flat;         // vertices on the Riemann sphere
+  std::vector<Homogeneous> hom;     // vertices in homogeneous plane coordinates
+  std::shared_ptr<SphereLocator> locator;
+  std::shared_ptr<ClosestPoint3> closest;  // on mesh (normalized frame)
+  std::vector<int> bfs_order, bfs_parent;  // vertex order for coherent walks
+  std::vector<std::pair<std::string, double>> timings;
+};
+
+// Throws InputError("<name>: <problem>") for invalid input (see require_genus0_surface).
+// If landmarks is non-empty, they are the feature points.
+BIMSurface bim_prepare(const TriMesh& mesh, const std::string& name, const BIMOptions& options,
+                       const std::vector<int>& landmarks = {}, const ProgressCallback& progress = {});
+
+// One candidate map, with its generating correspondences (vertex indices).
+struct BIMCandidate {
+  std::array<int, 3> source{}, target{};  // feature indices into src.features / dst.features
+  Mobius mobius;
+};
+
+// All candidates (Sec. 4), pruned to max_candidates by seeded random removal.
+std::vector<BIMCandidate> bim_candidates(const BIMSurface& src, const BIMSurface& dst,
+                                         const BIMOptions& options, long long* total = nullptr);
+
+// Image of every source vertex under one Möbius map, on the target surface
+// (normalized frame), n×3; also the target face and barycentric coordinates.
+Eigen::MatrixXd bim_apply(const BIMSurface& src, const BIMSurface& dst, const Mobius& m,
+                          Eigen::VectorXi* face = nullptr, Eigen::MatrixXd* bary = nullptr);
+
+// Confidence (Eq. 2) of map m at every P_even point of src, |P_even| values in [0,1].
+Eigen::VectorXd bim_confidence(const BIMSurface& src, const BIMSurface& dst, const Mobius& m);
+
+struct BIMMapInfo {
+  int index = -1;                      // candidate index
+  std::array<int, 3> source{}, target{};  // generating correspondences (vertex indices)
+  double integrated_confidence = 0;    // mean c_i over P_even
+};
+
+struct BIMDirectionResult {
+  BarycentricMap map;               // source vertex -> target face (input faces) + barycentric
+  Eigen::MatrixXd positions;        // n×3 mapped positions, target input coordinates
+  Eigen::VectorXd confidence;       // c_f per source vertex (Eq. 2 on the blended map)
+  double integrated_confidence = 0; // ∫ c_f dA (unit area) of the selected blend (Sec. 6.2)
+  std::vector<BIMMapInfo> selected; // maps of the selected group (binary weights)
+  int num_candidates = 0;           // K after pruning
+  long long num_candidates_total = 0;  // K before pruning
+  long long num_consistent_pairs = 0;  // off-diagonal pairs of S that were evaluated
+  std::vector<double> eigenvalues;  // top eigenvalues of S, descending
+  int num_eigenvectors_used = 0;    // within eigenvalue_fraction of the top
+  std::vector<double> group_confidence;  // integrated confidence of each group's blend
+  std::vector<int> group_sizes;
+  int selected_group = -1;
+  double best_candidate_confidence = 0;  // best single Möbius map (mean c_i at P_even)
+  std::vector<std::pair<std::string, double>> timings;
+};
+
+struct BIMResult {
+  BIMDirectionResult AB, BA;        // BA only with options.symmetric
+  std::vector<int> features_A, features_B;
+  int num_even = 0;
+  std::vector<std::pair<std::string, double>> timings;  // per stage, seconds
+  double total_seconds = 0;
+};
+
+BIMDirectionResult bim_map(const BIMSurface& src, const BIMSurface& dst, const BIMOptions& options,
+                           const ProgressCallback& progress = {});
+
+BIMResult blended_intrinsic_maps(const TriMesh& A, const TriMesh& B, const BIMOptions& options = {},
+                                 const ProgressCallback& progress = {});
+
+}  // namespace shapemap

@@ -1,0 +1,125 @@
+// Elastic, crease-aware correspondence between two triangle meshes
+// (elastic-correspondence.txt, Ezuz, Heeren, Azencot, Rumpf, Ben-Chen 2019).
+//
+//   E_inj(Y, P)        = W_def(X, Y) + beta |P X~ - Y|_X^2                         (Eq. 4)
+//   E_bij(Y, Y~, P, Q) = W_def(X, Y) + beta |P X~ - Y|_X^2
+//                      + W_def(X~, Y~) + beta |Q X - Y~|_X~^2
+//                      + gamma |P Y~ - X|_X^2 + gamma |Q Y - X~|_X~^2              (Eq. 6)
+// with W_def the thin-shell energy (shell_energy.h, Eq. 2/7/9), |A|_X^2 = tr(A^T M_X A)
+// with the lumped mass matrix (Eq. 3), and P (n×n~), Q (n~×n) barycentric projection
+// matrices (one triangle and 3 coordinates per row = a BarycentricMap).
+//
+// Algorithm 1 (alternating): P <- projection of the rows of B = [sqrt(beta) Y, sqrt(gamma) X]
+// onto the target triangulation embedded in R^6 with vertex coordinates
+// A = [sqrt(beta) X~, sqrt(gamma) Y~] (a ClosestPoint6 BVH, built once and refit every
+// outer iteration); Y <- L-BFGS with Armijo backtracking; then Q and Y~ symmetrically.
+// The injective model has only the P and Y steps (gamma = 0: a projection in R^3).
+#pragma once
+#include "shapemap/maps.h"
+#include "shapemap/mesh.h"
+#include "shapemap/progress.h"
+#include <Eigen/Core>
+#include <vector>
+
+namespace shapemap {
+
+enum class ElasticModel {
+  Injective,  // E_inj, Eq. 4 (near-isometric and partial matching)
+  Bijective,  // E_bij, Eq. 6 (non-isometric; reversibility terms)
+};
+
+struct ElasticOptions {
+  ElasticModel model = ElasticModel::Bijective;  // Sec. 3.1 / 3.2
+  double alpha = 20.0;            // membrane weight, Eq. 2 (Sec. 5.2: alpha = 20)
+  double eta = 0.1;               // bending weight, Eq. 2 (Sec. 6.1 SHREC'07, non-isometric)
+  double lambda = 1.0, mu = 1.0;  // Lame coefficients, Eq. 7 (Sec. 4.1: lambda = mu = 1)
+  double log_eps = 1e-4;          // Sec. 4.1: -log det G linearly extended below eps
+  double degenerate_tol = 1e-8;   // Sec. 5.2 masking edge sets: |n_t(Y)| <= tol |n_t(X)|
+  double beta_start = 1e3;        // mismatch penalty, Eq. 4/6 (Sec. 5.2: from 1e3 ...
+  double beta_end = 2e5;          //   ... linearly to 2e5 ...
+  int beta_ramp_iterations = 200; //   ... over the first 200 outer iterations)
+  double gamma = 2e4;             // reversibility penalty, Eq. 6 (Sec. 5.2: 2e4); gamma~ = gamma
+  int max_outer_iterations = 300; // Algorithm 1: K = 300
+  // Algorithm 1 stop: |E_k - E_{k-1}| < energy_tol * |E_k|, tested once beta has reached
+  // beta_end (before, E changes because beta does). 0 = always run K iterations.
+  double energy_tol = 1e-5;
+  int inner_max_iterations = 50;  // Sec. 5.1: at most 50 quasi-Newton iterations
+  double inner_tol = 1e-8;        // Sec. 5.1: stopping criterion 1e-8 (||grad||_inf)
+  // Inner stop on stalled progress: f_old - f_new < inner_f_tol * max(1, |f|) (0 = off;
+  // our addition, see docs/methods.md: later outer iterations start near the optimum).
+  double inner_f_tol = 1e-9;
+  int lbfgs_memory = 10;          // L-BFGS history (the paper uses BFGS; see docs/methods.md)
+  // Sec. 5.2 "Global scale": scale each mesh to unit area. false = the partial-matching
+  // variant of Sec. 6.2: no scaling; alpha divided by the source area s (s~ for the
+  // reverse shell), beta and gamma divided by s * s~.
+  bool normalize_area = true;
+  ProgressCallback progress;      // stage "elastic", fraction of max_outer_iterations
+
+  // Presets of Sec. 5.2 / 6.1: eta = 0.01 (near-isometric, FAUST intra-class),
+  // eta = 0.002 (degenerate initial maps, e.g. nearest-vertex snapped).
+  static ElasticOptions near_isometric() { ElasticOptions o; o.eta = 0.01; return o; }
+  static ElasticOptions degenerate_init() { ElasticOptions o; o.eta = 0.002; return o; }
+};
+
+// One row per outer iteration (after its last inner step).
+struct ElasticIterate {
+  double beta = 0;
+  double energy = 0;          // E_inj (Eq. 4) or E_bij (Eq. 6)
+  double deformation = 0;     // W_def(X, Y) (+ W_def(X~, Y~))
+  double mismatch = 0;        // beta terms, weighted
+  double reversibility = 0;   // gamma terms, weighted
+  int inner_iterations = 0;   // L-BFGS iterations, Y and Y~ steps
+  double time_projection = 0; // seconds in the P (and Q) steps of this iteration
+  double time_deformation = 0;// seconds in the Y (and Y~) steps
+};
+
+struct ElasticResult {
+  BarycentricMap map_AB;      // P: vertices of A -> faces of B
+  BarycentricMap map_BA;      // Q: vertices of B -> faces of A (empty for the injective model)
+  Eigen::MatrixXd Y;          // final deformation of A (n×3), in B's input coordinates
+  Eigen::MatrixXd Ytilde;     // final deformation of B (n~×3), in A's input coordinates
+  std::vector<ElasticIterate> history;
+  int outer_iterations = 0;
+  bool converged = false;     // the energy-change stop triggered (else K reached)
+  double time_setup = 0, time_projection = 0, time_deformation = 0, time_total = 0;
+  int degenerate_faces_initial = 0;  // faces of Y (and Y~) masked at the start
+  int degenerate_faces_final = 0;
+};
+
+// A, B: closed triangle meshes (A: n vertices, B: n~ vertices). init_AB: n rows onto B's
+// faces; init_BA: n~ rows onto A's faces (required for the bijective model, ignored by
+// the injective one). Throws InputError on mismatched maps (validate_map).
+ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
+                                     const BarycentricMap& init_AB,
+                                     const BarycentricMap& init_BA,
+                                     const ElasticOptions& opt = {});
+
+// The energy of Eq. 6 (or Eq. 4 when Q is empty) and its gradients, exactly as the Y and
+// Y~ steps of Algorithm 1 evaluate it, in the frames given (no normalization):
+// X n×3, F m×3 (source S); Xt n~×3, Ft (target S~); P: n rows onto Ft; Q: n~ rows onto F
+// (or empty); Y n×3, Yt n~×3 (ignored when Q is empty). gY, gYt (may be null) receive
+// dE/dY (n×3) and dE/dY~ (n~×3). shell: alpha, eta, ... of W_def (both shells).
+struct ElasticEnergyTerms {
+  double total = 0, deformation = 0, mismatch = 0, reversibility = 0;
+};
+struct ShellEnergyOptions;
+double elastic_energy(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F,
+                      const Eigen::MatrixXd& Xt, const Eigen::MatrixXi& Ft,
+                      const BarycentricMap& P, const BarycentricMap& Q,
+                      const Eigen::MatrixXd& Y, const Eigen::MatrixXd& Yt, double beta,
+                      double gamma, const ShellEnergyOptions& shell, Eigen::MatrixXd* gY = nullptr,
+                      Eigen::MatrixXd* gYt = nullptr, ElasticEnergyTerms* terms = nullptr);
+
+// Landmark-driven initial maps (docs/methods.md, "Elastic correspondence"): BIM
+// restricted to the given correspondences: the feature points of both surfaces are the
+// landmarks, the candidate Mobius maps are all triplets of corresponding landmarks
+// (BIMOptions::landmarks_A/B), blended as usual, in both directions.
+// la, lb: k >= 3 corresponding vertex indices (la[i] <-> lb[i]). `bim` supplies the
+// other BIM options (its landmark fields and `symmetric` are overwritten).
+// Throws InputError on mismatched or out-of-range landmarks.
+struct BIMOptions;
+void landmark_initial_maps(const TriMesh& A, const TriMesh& B, const std::vector<int>& la,
+                           const std::vector<int>& lb, BarycentricMap& init_AB,
+                           BarycentricMap& init_BA, const BIMOptions* bim = nullptr);
+
+}  // namespace shapemap

@@ -1,0 +1,98 @@
+// Discrete thin-shell deformation energy of elastic correspondence
+// (elastic-correspondence.txt, Sec. 4):
+//   W_def(X, Y) = alpha * W_mem(X, Y) + eta * W_bnd(X, Y)                       (Eq. 2)
+//   W_mem = sum_t a^_t W(G_t),  G_t = g^_t^{-1} g_t,                             (Eq. 7)
+//   W(A)  = mu/2 tr A + lambda/4 det A - (mu/2 + lambda/4) log det A - mu - lambda/4,
+//           with -log d replaced below d < eps by its C^1 linear extension
+//           -log eps - (d - eps)/eps (Sec. 4.1), so collapsed triangles stay finite;
+//   W_bnd = sum_{admissible e} (cos th^_e - cos th_e)^2 l^_e^2 / d^_e           (Eq. 9)
+//           cos th_e = <n_t, n_t'>, d^_e = (a^_t + a^_t')/3, and an edge is admissible
+//           when neither adjacent triangle is degenerate, re-evaluated at every
+//           evaluation (Sec. 5.2, "Masking edge sets").
+// X (reference, hats) is fixed at construction; Y is the deformed configuration with
+// the same connectivity. The energy is invariant to rigid motions of Y and zero at Y = X.
+// Gradients are exact; evaluation is parallel over faces/edges/vertices (OpenMP) with
+// per-element results gathered in a fixed order, so results do not depend on the
+// thread count.
+#pragma once
+#include <Eigen/Core>
+#include <vector>
+
+namespace shapemap {
+
+struct ShellEnergyOptions {
+  double alpha = 20.0;          // membrane weight, Eq. 2 (Sec. 5.2: alpha = 20)
+  double eta = 0.1;             // bending weight, Eq. 2 (Sec. 6.1 SHREC'07: eta = 0.1)
+  double lambda = 1.0;          // Lame coefficient lambda, Eq. 7 (Sec. 4.1: lambda = mu = 1)
+  double mu = 1.0;              // Lame coefficient mu, Eq. 7
+  double log_eps = 1e-4;        // Sec. 4.1: -log det linearly extended below det G < eps
+  double degenerate_tol = 1e-8; // Sec. 5.2: triangle degenerate if |n_t(Y)| <= tol * |n_t(X)|
+                                //   (n unnormalized: twice the area); such triangles mask edges
+};
+
+// The parts of one evaluation.
+struct ShellEnergyTerms {
+  double membrane = 0;          // W_mem (unweighted)
+  double bending = 0;           // W_bnd (unweighted, admissible edges only)
+  double total = 0;             // alpha W_mem + eta W_bnd
+  int admissible_edges = 0;     // edges that entered W_bnd
+  int degenerate_faces = 0;     // faces of Y with |n| <= degenerate_tol |n^|
+};
+
+// Precompute-then-evaluate solver object. Not thread-safe (uses internal scratch
+// buffers so that evaluations do not allocate).
+class ShellEnergy {
+ public:
+  ShellEnergy() = default;
+  // X: n×3 reference positions; F: m×3 triangles (manifold; boundary edges allowed and
+  // simply carry no bending term).
+  ShellEnergy(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F,
+              const ShellEnergyOptions& opt = {});
+
+  // y: 3n values, row-major positions (y[3i+k] = Y(i,k)). Returns alpha W_mem + eta W_bnd.
+  // grad (may be null): 3n values, overwritten with the gradient. terms (may be null).
+  double evaluate(const double* y, double* grad, ShellEnergyTerms* terms = nullptr) const;
+  // Convenience: Y n×3; G (may be null) receives n×3.
+  double evaluate(const Eigen::MatrixXd& Y, Eigen::MatrixXd* G = nullptr,
+                  ShellEnergyTerms* terms = nullptr) const;
+
+  void set_weights(double alpha, double eta) { opt_.alpha = alpha; opt_.eta = eta; }
+  const ShellEnergyOptions& options() const { return opt_; }
+  int num_vertices() const { return n_; }
+  int num_faces() const { return int(F_.rows()); }
+  int num_edges() const { return int(E_.rows()); }
+  // Interior edges (two faces) with a non-degenerate reference pair: k×4 rows
+  // [f0, f1, v_a, v_b] (shared edge (v_a, v_b)).
+  const Eigen::MatrixXi& interior_edges() const { return E_; }
+
+ private:
+  ShellEnergyOptions opt_;
+  int n_ = 0;
+  Eigen::MatrixXi F_;
+  Eigen::MatrixXd ginv_;       // m×3: (g^-1)_00, (g^-1)_01, (g^-1)_11 of the reference
+  Eigen::VectorXd area_;       // m: reference areas a^_t
+  Eigen::VectorXd detg_;       // m: det g^_t = |n^_t|^2 (= 4 a^_t^2)
+  Eigen::VectorXd nref_;       // m: |n^_t| (unnormalized normal length)
+  Eigen::MatrixXi E_;          // k×4 interior edges (see interior_edges())
+  Eigen::VectorXd cos_ref_;    // k: cos th^_e
+  Eigen::VectorXd weight_;     // k: l^_e^2 / d^_e
+  Eigen::MatrixXi face_edge_;  // m×3: interior edge index of each face slot, or -1
+  Eigen::MatrixXi face_side_;  // m×3: 0 if the face is E_(e,0) for that edge, else 1
+  std::vector<int> vf_start_, vf_face_, vf_corner_;  // vertex -> (face, corner) CSR
+  // scratch, per evaluation
+  mutable Eigen::MatrixXd fN_;      // m×3 unnormalized normals of Y
+  mutable Eigen::VectorXd fNlen_;   // m
+  mutable std::vector<char> fdeg_;  // m
+  mutable Eigen::MatrixXd fgrad_;   // m×9 per-face vertex gradients
+  mutable Eigen::VectorXd fenergy_; // m membrane energy per face (weighted by a^)
+  mutable Eigen::VectorXd eenergy_; // k bending energy per edge (weighted by l^2/d^)
+  mutable Eigen::MatrixXd egN_;     // k×6 dE/dN for side 0 and side 1
+  mutable std::vector<char> eadm_;  // k
+};
+
+// Membrane density W of Eq. 7 with the linear extension, as a function of
+// t = tr G and d = det G; writes dW/dt and dW/dd if non-null (for tests and metrics).
+double membrane_density(double t, double d, double lambda, double mu, double eps,
+                        double* dW_dt = nullptr, double* dW_dd = nullptr);
+
+}  // namespace shapemap

@@ -1,0 +1,105 @@
+// Ball-shaped volume-preserving parameterization by isovolumetric energy minimization
+// (isovolumetric-ball-parameterization.txt, Algorithm 1): AST (Eqs. 11-13), spherical
+// area-preserving boundary map (sphere_param.h), VSEM fixed-point initialization
+// (vsem.h), then preconditioned nonlinear CG on E_I (Eq. 2) over (f_I, theta, phi) with
+// the explicit gradient (Eq. 10), beta by Eq. 16c, the quadratic-model step of Eq. 17
+// and a strong Wolfe fallback (Eq. 18).
+//
+// Pole handling (docs/methods.md): the spherical coordinates are taken in a rotated
+// frame Q whose poles sit in the largest empty caps of the boundary point set; the frame
+// is re-chosen (and CG restarted) when a boundary vertex drifts close to a pole. The phi
+// block of the preconditioner is S L_BB S with S = diag(sin theta) of the frame's chart,
+// so the preconditioned step moves near-pole vertices isotropically on the sphere.
+#pragma once
+#include "shapemap/mesh.h"
+#include "shapemap/progress.h"
+#include "shapemap/volume/sphere_param.h"
+#include "shapemap/volume/vsem.h"
+#include <string>
+#include <vector>
+
+namespace shapemap {
+
+// E_I as a function of x = [f_I^1; f_I^2; f_I^3; theta; phi] (Eq. 14), with the boundary
+// at f_b = Q^T (sin th cos ph, sin th sin ph, cos th) (Eq. 4 when Q = I).
+class SphericalBallEnergy {
+ public:
+  // energy: built on the tet mesh; interior / boundary: vertex indices (nI, nB).
+  SphericalBallEnergy(const IsovolumetricEnergy& energy, const Eigen::VectorXi& interior,
+                      const Eigen::VectorXi& boundary);
+  int num_variables() const { return 3 * nI_ + 2 * nB_; }
+  int num_interior() const { return nI_; }
+  int num_boundary() const { return nB_; }
+  void set_frame(const Eigen::Matrix3d& Q) { Q_ = Q; }
+  const Eigen::Matrix3d& frame() const { return Q_; }
+  // x -> f (n×3); interior rows of f not in `interior` and boundary rows are overwritten.
+  void to_map(const Eigen::VectorXd& x, Eigen::MatrixXd& f) const;
+  // f (n×3, boundary rows on the unit sphere) -> x (Eq. 5 in the frame Q).
+  Eigen::VectorXd from_map(const Eigen::MatrixXd& f) const;
+  double energy(const Eigen::VectorXd& x) const;
+  // Number of tets with non-positive image volume at x.
+  int inverted_tets(const Eigen::VectorXd& x) const;
+  // E_I and its gradient in x (Eqs. 10a-10c), g sized like x.
+  double energy_and_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& g) const;
+
+ private:
+  const IsovolumetricEnergy& E_;
+  Eigen::VectorXi interior_, boundary_;
+  int nI_ = 0, nB_ = 0;
+  Eigen::Matrix3d Q_ = Eigen::Matrix3d::Identity();
+  mutable Eigen::MatrixXd f_, G_;
+};
+
+struct BallParamOptions {
+  bool anisotropic_scaling = true;  // AST, Eqs. 11-13 (Alg. 1 steps 1-3)
+  SphereParamOptions sphere;        // spherical area-preserving boundary map (step 6)
+  int vsem_iterations = 15;         // fixed-point updates (steps 9-12; Sec. 6 uses 15)
+  int max_iterations = 500;         // MaxIter (Sec. 6: 500)
+  double tolerance = 1e-6;          // epsilon: stop when E_old - E_new < tol (steps 19, 37)
+  double initial_step = 1.0;        // alpha_{-1} for the first quadratic model (Eq. 17)
+  double c1 = 1e-4, c2 = 0.1;       // strong Wolfe constants, 0 < c1 < c2 < 1/2 (Eq. 18)
+  int max_line_search = 30;         // evaluations per Wolfe fallback
+  double pole_guard = 0.25;         // re-choose the frame when min sin(theta) drops below
+                                    // this fraction of its value when the frame was chosen
+  bool rotate_frame = true;         // pole handling (off: the paper's fixed frame Q = I)
+  bool metric_phi_preconditioner = true;  // phi block S L_BB S (off: L_BB, Eq. 16)
+  bool prevent_new_folds = false;   // halve a step that would increase the number of
+                                    // inverted tets (off: the paper's plain step; on, CG
+                                    // tends to stall early, see docs/methods.md)
+};
+
+struct BallParamResult {
+  Eigen::MatrixXd f;                // n×3 ball coordinates, input vertex order
+  Eigen::MatrixXd f_vsem;           // n×3 after the VSEM initialization
+  Eigen::VectorXi boundary;         // boundary vertex indices
+  AnisotropicScaling ast;           // the AST applied before mapping (identity if off)
+  double energy_vsem = 0;           // E_I after VSEM (Alg. 1 step 14)
+  double energy_final = 0;          // E_I at the end
+  std::vector<double> energies;     // E_I after each CG iteration
+  int iterations = 0;               // CG iterations
+  int quadratic_steps = 0;          // iterations that took the Eq. 17 step
+  int wolfe_steps = 0;              // iterations that fell back to the strong Wolfe search
+  int restarts = 0;                 // steepest-descent restarts (non-descent p, new frame)
+  int frame_rotations = 0;          // pole guard activations (after the initial frame)
+  int evaluations = 0;              // E_I evaluations in CG (with or without gradient)
+  int fold_backtracks = 0;          // step halvings by prevent_new_folds
+  int inverted_vsem = 0, inverted_final = 0;  // tets with |f(tau)| <= 0
+  double cpu_seconds_cg = 0;        // process CPU time of the CG loop (all threads)
+  bool converged = false;           // stopped by the tolerance (not MaxIter)
+  int sphere_folded_faces = 0;      // folded faces of the boundary spherical map
+  // Timings in seconds.
+  double seconds_total = 0, seconds_sphere = 0, seconds_vsem = 0, seconds_factor = 0;
+  double seconds_cg = 0, seconds_cg_solve = 0, seconds_cg_eval = 0;
+};
+
+// mesh: tet mesh of a topological ball, positively oriented. Throws InputError
+// ("<name>: ...") for a mesh that is not a topological ball or not a valid volume.
+BallParamResult ball_parameterization(const TetMesh& mesh, const BallParamOptions& opt = {},
+                                      const ProgressCallback& progress = {},
+                                      const std::string& name = "mesh");
+
+// Rotation Q (det +1) whose poles +-Q^T e_z avoid the unit vectors Y (k×3) as far as
+// possible (largest empty antipodal caps among face-centroid candidates of F, k-indexed).
+Eigen::Matrix3d pole_avoiding_frame(const Eigen::MatrixXd& Y, const Eigen::MatrixXi& F);
+
+}  // namespace shapemap

@@ -1,0 +1,66 @@
+// The ARAP distortion of a piecewise-linear volume map with signed singular values,
+// symmetric-volume-maps Sec. 3.3 (sARAP = average of the ARAP energies of the forward
+// and backward maps) and Sec. 4.3.2 (Eqs. 19, 20, gradient Eq. 26).
+//
+//   f_ARAP(J) = sum_j (sigma_j - 1)^2                              (Eq. 19)
+//   sigma: signed singular values of J, Irving et al. 2004 convention (U, V in SO(3),
+//   the smallest carries sign(det J)), from shapemap::signed_svd3; equivalently
+//   f_ARAP(J) = min_{R in SO(3)} ||J - R||_F^2, finite for inverted and flat tets.
+//
+//   E_ARAP[X] = 1/(2c) sum_k v(T_k) f_ARAP(J(X^{T_k}))             (Eq. 20, one direction)
+//   c: total volume of the source mesh, v(T_k): rest volume of tet k.
+//
+//   dE/dX^{T_k} = w_k ((B V^{T_k})^{-T} B)^T (U diag(grad_sigma f) V^T)^T   (Eq. 26)
+#pragma once
+#include <Eigen/Core>
+#include <vector>
+
+namespace shapemap {
+
+// Eq. 19 on a vector of signed singular values; writes d f / d sigma if grad != nullptr.
+double arap_distortion(const Eigen::Vector3d& sigma, Eigen::Vector3d* grad = nullptr);
+
+// Eq. 19 on a Jacobian (signed SVD inside); writes d f / d J (3×3) if grad != nullptr.
+double arap_distortion(const Eigen::Matrix3d& J, Eigen::Matrix3d* grad = nullptr);
+
+// Eq. 20 for one map of a fixed source tet mesh: precompute, then evaluate many X.
+// Evaluation is parallel over tets and deterministic (per-tet values are written into
+// arrays and summed serially; vertex gradients are gathered per vertex in a fixed order).
+// Not thread-safe: one evaluation at a time per object (internal scratch buffers).
+class ArapEnergy {
+ public:
+  ArapEnergy() = default;
+  // V: n×3 rest positions, T: m×4 positively oriented tets. Weights w_k = v(T_k)/(2c)
+  // with c = total volume (Eq. 20).
+  ArapEnergy(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T) { build(V, T); }
+  void build(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T);
+
+  // E_ARAP[X] (Eq. 20); X: n×3 mapped positions. grad (n×3, resized) if non-null.
+  double energy(const Eigen::MatrixXd& X, Eigen::MatrixXd* grad = nullptr) const;
+  // The same sum restricted to the listed tets (the others are held constant and
+  // left out); grad (n×3, resized, zero outside those tets) if non-null.
+  double energy(const Eigen::MatrixXd& X, const std::vector<int>& tets,
+                Eigen::MatrixXd* grad) const;
+
+  // f_ARAP(J_k) per tet (m), without weights.
+  Eigen::VectorXd per_tet(const Eigen::MatrixXd& X) const;
+  // det J_k per tet (m); <= 0 means inverted or flat (Algorithm 1, line 13).
+  Eigen::VectorXd determinants(const Eigen::MatrixXd& X) const;
+
+  const Eigen::VectorXd& weights() const { return w_; }  // v(T_k)/(2c), m
+  const Eigen::MatrixXi& tets() const { return T_; }
+  const std::vector<Eigen::Matrix3d>& rest_inverse() const { return Dm_inv_; }
+  int num_vertices() const { return n_; }
+  int num_tets() const { return int(T_.rows()); }
+
+ private:
+  int n_ = 0;
+  Eigen::MatrixXi T_;
+  std::vector<Eigen::Matrix3d> Dm_inv_;
+  Eigen::VectorXd w_;
+  std::vector<int> vt_start_, vt_list_;  // vertex -> 4*tet + corner, CSR, sorted
+  mutable Eigen::VectorXd tet_e_;
+  mutable std::vector<Eigen::Matrix<double, 4, 3>> tet_g_;
+};
+
+}  // namespace shapemap

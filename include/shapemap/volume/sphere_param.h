@@ -1,0 +1,55 @@
+// Spherical area-preserving parameterization of a genus-0 closed triangle surface: the
+// boundary map of the ball parameterization (isovolumetric-ball-parameterization.txt,
+// Algorithm 1 step 6, which cites [28, Alg. 4.3]).
+//
+// Method (docs/methods.md, "Isovolumetric ball parameterization"):
+//  1. Linear spherical map: one face is sent to infinity; the rest solves the cotangent
+//     Laplace equation in the plane with that face's three vertices fixed (Angenent/Haker
+//     style puncture), then inverse stereographic projection.
+//  2. Conformal energy minimization on the sphere (Yueh, Lin, Wu, Yau 2017): alternate the
+//     hemispheres by the inversion z -> z/|z|^2 and re-solve the harmonic problem inside the
+//     disk |z| < R_c with the outside fixed, while the conformal energy decreases.
+//  3. Stretch energy minimization (Yueh, Lin, Wu, Yau 2019, "A novel stretch energy
+//     minimization algorithm for equiareal parameterizations"): the same alternation with
+//     the stretch Laplacian L_S(f), cotangent weights of the image divided by the stretch
+//     factor sigma = (target area share) / (image area share), while E_S - A decreases.
+// Iterations that would increase the energy or the number of folded triangles are
+// rejected (and stop the stage).
+#pragma once
+#include "shapemap/mesh.h"
+#include "shapemap/progress.h"
+
+namespace shapemap {
+
+struct SphereParamOptions {
+  int conformal_iterations = 20;     // CEM hemisphere alternations (Yueh et al. 2017)
+  double conformal_tolerance = 1e-6; // stop CEM when the energy decrease is below this
+  double conformal_radius = 1.2;     // disk |z| < R re-solved in each CEM step
+  int stretch_iterations = 50;       // SEM alternations (Yueh et al. 2019)
+  double stretch_tolerance = 1e-7;   // stop SEM when the relative decrease is below this
+  double stretch_radius = 1.3;       // disk |z| < R re-solved in each SEM step
+};
+
+struct SphereParamResult {
+  Eigen::MatrixXd S;                 // n×3, unit vectors, outward orientation preserved
+  int conformal_iterations = 0, stretch_iterations = 0;
+  double conformal_energy = 0;       // E_C = 1/2 tr(S^T L S) - A(S) after CEM
+  double stretch_energy_initial = 0; // E_S - A(S) before SEM
+  double stretch_energy = 0;         // E_S - A(S) at the end
+  int folded_faces = 0;              // faces whose image is negatively oriented
+  double seconds = 0;
+};
+
+// surface: closed genus-0 triangle mesh, outward oriented (V n×3, F m×3).
+// face_weights: optional m target area shares (default: the triangle areas of surface).
+// Throws InputError for a surface that is too small or not closed.
+SphereParamResult spherical_area_preserving_map(const TriMesh& surface,
+                                                const Eigen::VectorXd& face_weights = {},
+                                                const SphereParamOptions& opt = {},
+                                                const ProgressCallback& progress = {});
+
+// Number of faces of F whose image on the sphere S (n×3) is negatively oriented
+// (S_i . (S_j x S_k) <= 0).
+int spherical_folded_faces(const Eigen::MatrixXd& S, const Eigen::MatrixXi& F);
+
+}  // namespace shapemap

@@ -1,0 +1,173 @@
+// Symmetric volume maps between tetrahedral meshes (symmetric-volume-maps.txt,
+// Abulnaga, Stein, Golland, Solomon 2023): two maps, phi: M1 -> M2 and psi: M2 -> M1,
+// each represented twice (Sec. 4.2): P_ij (vertex -> tet of the target + barycentric,
+// "inside the target") and X_ij (free vertex positions, X_ij ~ P_ij V_j), found by
+// block-coordinate descent on Eq. 25 with the five stages of Algorithm 1.
+//
+//   E = alpha E_ARAP + (1 - alpha) E_R + gamma E_P + beta E_Q                 (Eq. 25)
+//   E_ARAP  Eq. 20 (sarap.h)
+//   E_R  = sum_{i!=j} 1/c_i^2      || P_ij X_ji - V_i ||^2_{M_i}               (Eq. 18)
+//   E_Q  = sum_{i!=j} 1/(c_i c_j)  || X_ij - P_ij V_j ||^2_{M_i}               (Eq. 17)
+//   E_P  = E_P,f + E_P,b                                                       (Eq. 23)
+//   E_P,f = sum 1/s_i || (X_ij)_dMi - proj((X_ij)_dMi, dM_j) ||^2_{dM_i}       (Eq. 21)
+//   E_P,b = sum 1/s_i || V_i - proj(V_i, dF_j(X_ji)) ||^2_{dM_i}               (Eq. 22)
+//   ||G||^2_M = tr(G^T C G), C the lumped vertex mass (volumes for M_i, boundary
+//   areas for dM_i); c_i total volume, s_i total boundary area.
+//
+// Both meshes are first scaled to unit volume (Sec. 5.5); results come back in the
+// target's original coordinates.
+#pragma once
+#include "shapemap/geometry/closest_point.h"
+#include "shapemap/maps.h"
+#include "shapemap/mesh.h"
+#include "shapemap/progress.h"
+#include "shapemap/volume/sarap.h"
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace shapemap {
+
+struct SymmetricVolumeMapOptions {
+  double alpha = 0.5;          // Eq. 25, Sec. 5.5: rigidity (ARAP) vs reversibility (E_R)
+  double gamma = 25.0;         // Eq. 25, Sec. 5.5: weight of the projection term E_P
+  double beta_start = 0.25;    // Sec. 4.4: E_Q weight at the first iteration ...
+  double beta_end = 5.0;       // ... increased linearly to this ...
+  int beta_ramp_iterations = 20;  // ... over this many outer iterations (Sec. 4.4, 5.5)
+  double backward_projection_scale = 1.0;  // Eq. 23: E_P = E_P,f + scale * E_P,b (paper: 1)
+  // Stopping rules of stages 2 and 4 (Sec. 5.4). The decrease rule only applies once
+  // beta has reached beta_end (while beta grows, Eq. 25 itself changes).
+  double grad_tol = 1e-6;      // Sec. 5.4 (i): ||grad E||_2 (free variables) after the X-steps
+  double decrease_tol = 1e-7;  // Sec. 5.4 (ii): E_prev - E between outer iterations
+  int max_iterations = 50;     // Sec. 5.4 (iii): outer iterations per stage
+  int min_iterations = 1;      // outer iterations before a stopping rule may apply
+  int xstep_iterations = 30;   // L-BFGS iterations per X-step (Sec. 5.2; not in the paper)
+  int repair_iterations = 200; // Sec. 5.3: L-BFGS iterations of the inverted-tet repair
+  int repair_rings = 1;        // Sec. 5.3: 1-ring neighbourhood of inverted tets' vertices
+  int post_repair_steps = 100; // Sec. 5.4 stage 5: at most 100 L-BFGS steps ...
+  int post_repair_rounds = 5;  // ... per round, rounds while inversions remain (ref. code: 5)
+  bool fix_boundary_first = true;  // Algorithm 1 lines 6-10 (stage 2): boundary of X fixed,
+                                   // boundary rows of P restored each iteration
+  bool boundary_to_boundary = false;  // Sec. 5.2: hard constraint P in P*_ij (boundary rows
+                                      // projected onto boundary faces); Eq. 24 uses P_ij
+  int lbfgs_memory = 10;
+};
+
+// One stage of Algorithm 1, for the report.
+struct SymmetricMapStage {
+  std::string name;
+  int iterations = 0;        // outer iterations (stages 2, 4) or L-BFGS iterations (3, 5)
+  double seconds = 0;
+  double energy = 0;         // Eq. 25 at the end of the stage (weights of the last iteration)
+  int inverted12 = 0, inverted21 = 0;  // det J <= 0 in X_12, X_21 at the end
+  double time_pstep = 0, time_xstep = 0;  // seconds in P-steps / X-steps (stages 2, 4)
+  int lbfgs_iterations = 0, evaluations = 0; // X-step L-BFGS totals (stages 2, 4)
+  std::string stop_reason;   // "gradient", "decrease", "iterations" (stages 2, 4)
+  std::vector<double> energy_history, gradient_history;  // per outer iteration
+};
+
+struct SymmetricVolumeMapResult {
+  Eigen::MatrixXd X12, X21;  // n1×3 in M2's original coordinates, n2×3 in M1's
+  BarycentricMap P12, P21;   // the P variables (Sec. 4.2), vertex -> target tet
+  BarycentricMap map12, map21;  // X located in the target (boundary vertices snapped to
+                                // the target boundary): the map files of the CLI
+  std::vector<SymmetricMapStage> stages;
+  // Eq. 25 terms at the end, unit-volume frame, final weights.
+  double E = 0, E_arap = 0, E_R = 0, E_P = 0, E_Q = 0;
+  int iterations = 0;        // outer iterations, stages 2 + 4
+};
+
+// Algorithm 1. A, B: valid tet meshes (positively oriented). init12: each vertex of A ->
+// tet of B + barycentric; init21 likewise (Sec. 5.1). Throws InputError on mismatched maps.
+SymmetricVolumeMapResult symmetric_volume_map(const TetMesh& A, const TetMesh& B,
+                                              const BarycentricMap& init12,
+                                              const BarycentricMap& init21,
+                                              const SymmetricVolumeMapOptions& opt = {},
+                                              const ProgressCallback& progress = {});
+
+// ---- Initializations (Sec. 5.1) -------------------------------------------------
+
+// Landmarks: LA[k] (vertex of A) <-> LB[k] (vertex of B). Every vertex of A copies the
+// target of its closest landmark (Euclidean, in A). Returns the A -> B map (a tet of B
+// incident to LB[k], barycentric 1 at that corner). Throws InputError on count mismatch
+// or out-of-range indices.
+BarycentricMap landmark_initial_map(const TetMesh& A, const TetMesh& B, const std::vector<int>& LA,
+                                    const std::vector<int>& LB);
+
+// From the images of A's boundary vertices: boundary_targets is nb×3 (row i: image of
+// boundary vertex boundary_surface(A).to_volume[i], in B's coordinates), snapped to B's
+// boundary; every interior vertex copies the target of its closest boundary vertex
+// (Sec. 5.1, "every boundary vertex is a landmark").
+BarycentricMap boundary_initial_map(const TetMesh& A, const TetMesh& B,
+                                    const Eigen::MatrixXd& boundary_targets);
+
+// From a surface map between the boundary surfaces: map_AB takes each vertex of SA to a
+// face of SB + barycentric, where SA, SB are the surfaces the map was computed on (the
+// boundary surfaces of A and B, or the closed surfaces A and B were tetrahedralized
+// from: A's boundary vertices are located on SA by closest point).
+BarycentricMap surface_initial_map(const TetMesh& A, const TetMesh& B, const TriMesh& SA,
+                                   const TriMesh& SB, const BarycentricMap& map_AB);
+
+// The automatic mode: a surface map between two closed genus-0 surfaces in both
+// directions (BIM, then elastic refinement when available). Returns {map_AB, map_BA}
+// (vertex -> face + barycentric). `used` receives a short description of the method.
+std::pair<BarycentricMap, BarycentricMap> surface_map_for_volumes(const TriMesh& SA,
+                                                                  const TriMesh& SB,
+                                                                  const ProgressCallback& progress = {},
+                                                                  std::string* used = nullptr);
+
+// Locates positions X (k×3) in the tet mesh M: a containing tet (or the closest one);
+// rows listed in `boundary_rows` are instead snapped to the closest point of M's
+// boundary surface (face -> its tet, 4th coordinate 0).
+BarycentricMap locate_in_tets(const TetMesh& M, const Eigen::MatrixXd& X,
+                              const std::vector<int>& boundary_rows = {});
+
+// ---- The objective of one direction, exposed for tests ----------------------------
+
+// The part of Eq. 25 that depends on X_ij with P_ij, P_ji fixed (Sec. 5.2, X-step):
+//   alpha/(2c_i) sum_k v_k f(J_k(X_ij))                    [E_ARAP, Eq. 20]
+// + (1-alpha)/c_j^2 || P_ji X_ij - V_j ||^2_{M_j}           [E_R, Eq. 18, term (j,i)]
+// + gamma/s_i sum_{b in dM_i} a_b |X_ij(b) - proj(X_ij(b), dM_j)|^2          [Eq. 21]
+// + gamma*scale/s_j sum_{b in dM_j} a_b |V_j(b) - proj(V_j(b), dF_i(X_ij))|^2 [Eq. 22]
+// + beta/(c_i c_j) || X_ij - P_ij V_j ||^2_{M_i}            [E_Q, Eq. 17]
+// Meshes are used as given (normalize them first to follow the paper).
+class DirectionalEnergy {
+ public:
+  struct Terms {
+    double arap = 0, reversibility = 0, projection_forward = 0, projection_backward = 0,
+           auxiliary = 0, total = 0;  // unweighted terms, total = weighted sum
+  };
+  DirectionalEnergy(const TetMesh& Mi, const TetMesh& Mj);
+  void set_weights(double alpha, double beta, double gamma, double backward_scale = 1.0);
+  // P_ij: n_i rows -> tets of M_j; P_ji: n_j rows -> tets of M_i.
+  void set_maps(const BarycentricMap& P_ij, const BarycentricMap& P_ji);
+  // Eq. 25 (X_ij part). X: n_i×3; grad n_i×3 if non-null.
+  double evaluate(const Eigen::MatrixXd& X, Eigen::MatrixXd* grad = nullptr,
+                  Terms* terms = nullptr) const;
+  // ARAP only (Sec. 5.3) on the tets incident to `free_vertices`.
+  const ArapEnergy& arap() const { return arap_; }
+  const TetBoundary& boundary_i() const { return bi_; }
+  const TetBoundary& boundary_j() const { return bj_; }
+  const Eigen::VectorXd& mass_i() const { return Ci_; }
+  double volume_i() const { return ci_; }
+  double area_i() const { return si_; }
+
+ private:
+  TetMesh Mi_, Mj_;
+  ArapEnergy arap_;
+  TetBoundary bi_, bj_;
+  Eigen::VectorXd Ci_, Cj_;          // lumped tet masses
+  Eigen::VectorXd ai_, aj_;          // lumped boundary areas per boundary (surface) vertex
+  double ci_ = 1, cj_ = 1, si_ = 1, sj_ = 1;
+  double alpha_ = 0.5, beta_ = 0.25, gamma_ = 25, bscale_ = 1;
+  Eigen::MatrixXi Fi_vol_;           // boundary faces of M_i in volume numbering
+  ClosestPoint3 target_boundary_;    // dM_j (static)
+  mutable ClosestPoint3 mapped_boundary_;  // dF_i(X): refit per evaluation
+  mutable bool mapped_built_ = false;
+  Eigen::MatrixXd PijVj_;            // n_i×3
+  BarycentricMap Pji_;
+  Eigen::MatrixXi Pji_verts_;        // n_j×4 vertices of M_i
+};
+
+}  // namespace shapemap

@@ -1,0 +1,239 @@
+// Tetrahedralization of a closed surface (CGAL Mesh_3, polyhedral domain) and the
+// polyhedral surface remesher used by the generated pairs. One of the two translation
+// units of shapemap that include CGAL (the other: implicit_mesher.cpp).
+#include "shapemap/volume/tetrahedralize.h"
+#include "internal.h"
+#include "shapemap/error.h"
+
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Mesh_complex_3_in_triangulation_3.h>
+#include <CGAL/Mesh_criteria_3.h>
+#include <CGAL/Mesh_triangulation_3.h>
+#include <CGAL/Polyhedral_mesh_domain_with_features_3.h>
+#include <CGAL/Random.h>
+#include <CGAL/Surface_mesh.h>
+#include <CGAL/make_mesh_3.h>
+#include <CGAL/refine_mesh_3.h>
+
+#include <algorithm>
+#include <cmath>
+#include <unordered_map>
+
+namespace shapemap {
+namespace {
+
+using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+using Point = K::Point_3;
+using SurfaceMesh = CGAL::Surface_mesh<Point>;
+using Domain = CGAL::Polyhedral_mesh_domain_with_features_3<K, SurfaceMesh>;
+using Tr = CGAL::Mesh_triangulation_3<Domain, CGAL::Default, CGAL::Sequential_tag>::type;
+using C3t3 = CGAL::Mesh_complex_3_in_triangulation_3<Tr, Domain::Corner_index, Domain::Curve_index>;
+using Criteria = CGAL::Mesh_criteria_3<Tr>;
+using Vertex_handle = Tr::Vertex_handle;
+
+SurfaceMesh to_surface_mesh(const TriMesh& m, const std::string& name) {
+  SurfaceMesh sm;
+  std::vector<SurfaceMesh::Vertex_index> vi(m.num_vertices());
+  for (int i = 0; i < m.num_vertices(); ++i) vi[i] = sm.add_vertex(Point(m.V(i, 0), m.V(i, 1), m.V(i, 2)));
+  for (int f = 0; f < m.num_faces(); ++f)
+    if (sm.add_face(vi[m.F(f, 0)], vi[m.F(f, 1)], vi[m.F(f, 2)]) == SurfaceMesh::null_face())
+      throw InputError(name + ": face " + std::to_string(f) + " breaks manifoldness");
+  return sm;
+}
+
+// Initial surface points for Mesh_3: input vertices taken at a stride over the index
+// range, keeping only those at least min_separation from the ones already kept (close
+// initial points make the Delaunay refinement cascade around them), each snapped to
+// the surface by a short segment across it along the vertex normal (which also gives
+// the Mesh_3 surface index). Every part of the surface gets points, so thin parts
+// (legs, ears) cannot be missed by the random ray shooting of CGAL's default
+// initialization.
+void insert_initial_points(C3t3& c3t3, const Domain& domain, const TriMesh& m, int count,
+                           double min_separation) {
+  Eigen::MatrixXd N = vertex_normals(m.V, m.F);
+  double diag = (m.V.colwise().maxCoeff() - m.V.colwise().minCoeff()).norm();
+  double eps = 1e-4 * diag;
+  auto intersect = domain.construct_intersection_object();
+  auto cwp = c3t3.triangulation().geom_traits().construct_weighted_point_3_object();
+  const int n = m.num_vertices();
+  count = std::clamp(count, 4, n);
+  std::vector<Eigen::Vector3d> kept;
+  for (int k = 0; k < count; ++k) {
+    int i = int((long long)k * n / count);
+    Eigen::Vector3d p = m.V.row(i), d = N.row(i);
+    bool close = false;
+    for (const Eigen::Vector3d& q : kept) close |= (q - p).norm() < min_separation;
+    if (close) continue;
+    K::Segment_3 s(Point(p.x() - eps * d.x(), p.y() - eps * d.y(), p.z() - eps * d.z()),
+                   Point(p.x() + eps * d.x(), p.y() + eps * d.y(), p.z() + eps * d.z()));
+    Domain::Intersection in = intersect(s);
+    if (std::get<2>(in) == 0) continue;  // no crossing (degenerate normal)
+    Vertex_handle v = c3t3.triangulation().insert(cwp(std::get<0>(in)));
+    if (v != Vertex_handle()) {
+      c3t3.set_dimension(v, 2);
+      c3t3.set_index(v, std::get<1>(in));
+      kept.push_back(p);
+    }
+  }
+}
+
+double bbox_diagonal(const Eigen::MatrixXd& V) {
+  return (V.colwise().maxCoeff() - V.colwise().minCoeff()).norm();
+}
+
+Eigen::Vector3d to_eigen(const Point& p) { return {p.x(), p.y(), p.z()}; }
+
+}  // namespace
+
+TetMesh tetrahedralize(const TriMesh& surface_in, const TetrahedralizeOptions& opt,
+                       const ProgressCallback& progress) {
+  const std::string name = "surface";
+  cgal_internal::require_closed_manifold(surface_in, name);
+  if (opt.edge_length < 0) throw InputError("tetrahedralize: edge length must be positive");
+  if (opt.target_tets < 0) throw InputError("tetrahedralize: target tet count must be positive");
+  if (!(opt.radius_edge_ratio >= 2)) throw InputError("tetrahedralize: radius-edge ratio must be >= 2");
+  TriMesh surface = surface_in;
+  double vol = enclosed_volume(surface.V, surface.F);
+  if (vol < 0) {
+    surface.F.col(1).swap(surface.F.col(2));
+    vol = -vol;
+  }
+  const double diag = bbox_diagonal(surface.V);
+  if (!(vol > 1e-12 * diag * diag * diag)) throw InputError(name + ": encloses no volume");
+  const double area = surface_area(surface.V, surface.F);
+
+  // Size. A regular tet of edge a has volume a^3 / (6 sqrt 2); Delaunay refinement
+  // stops below the size bound, so the mean tet is smaller than the bound by a factor
+  // kTetFill, calibrated on spheres and spot.obj (tets per regular-tet volume).
+  constexpr double kTetFill = 2.65;
+  double L = opt.edge_length;
+  if (L <= 0) {
+    int n = opt.target_tets > 0 ? opt.target_tets : 30000;
+    L = std::cbrt(6 * std::sqrt(2.0) * vol * kTetFill / n);
+  }
+  if (!(L > 1e-6 * diag)) throw InputError("tetrahedralize: edge length too small for the input size");
+
+  report(progress, "tetrahedralize/setup", 0);
+  CGAL::get_default_random() = CGAL::Random(opt.seed);
+  SurfaceMesh sm = to_surface_mesh(surface, name);
+  CGAL::Random rng(opt.seed);
+  Domain domain(sm, &rng);
+  if (opt.faithful_boundary) domain.detect_features(60);  // protect creases sharper than 120 deg dihedral
+  const bool has_features = opt.faithful_boundary && domain.maximal_curve_index() != Domain::Curve_index();
+
+  // Criteria (CGAL Mesh_3 user manual, section 2.3): circumradius bounds derived from L:
+  // a regular tet of edge L has circumradius 0.61 L, an equilateral triangle 0.58 L.
+  namespace P = CGAL::parameters;
+  // facet_distance tied to L: a much finer surface than volume makes sliver
+  // perturbation slow (measured on spot.obj); capped at 1% of the bounding box.
+  const double facet_distance = std::min(0.1 * L, 0.01 * diag);
+  Criteria criteria(P::edge_size = L, P::facet_angle = 25, P::facet_size = 0.58 * L,
+                    P::facet_distance = facet_distance,
+                    P::cell_radius_edge_ratio = opt.radius_edge_ratio, P::cell_size = 0.61 * L);
+
+  C3t3 c3t3;
+  // An explicit time limit (0 = none): CGAL's default limit is the refinement time,
+  // which would make the result depend on the machine load.
+  const double tl = std::max(0.0, opt.optimize_time_limit);
+  const auto perturb = opt.optimize ? P::perturb(P::time_limit = tl, P::sliver_bound = opt.sliver_bound)
+                                    : P::no_perturb();
+  const auto exude = opt.optimize ? P::exude(P::time_limit = tl, P::sliver_bound = opt.sliver_bound)
+                                  : P::no_exude();
+  const auto odt = opt.odt ? P::odt(P::time_limit = tl, P::max_iteration_number = 10) : P::no_odt();
+  report(progress, "tetrahedralize/refine", 0);
+  if (has_features) {
+    c3t3 = CGAL::make_mesh_3<C3t3>(domain, criteria, P::features(domain), perturb, exude,
+                                   odt, P::no_lloyd(), P::manifold());
+  } else {
+    int npts = int(std::clamp(area / (L * L) / 8, 20.0, 400.0));
+    insert_initial_points(c3t3, domain, surface, npts, 1.5 * L);
+    CGAL::refine_mesh_3(c3t3, domain, criteria, perturb, exude, odt, P::no_lloyd(),
+                        P::no_reset_c3t3(), P::manifold());
+  }
+  report(progress, "tetrahedralize/refine", 1);
+
+  // Extract the cells of the complex on compacted vertices, positively oriented.
+  std::unordered_map<Vertex_handle, int> index;
+  std::vector<Eigen::Vector3d> pts;
+  std::vector<std::array<int, 4>> tets;
+  tets.reserve(c3t3.number_of_cells_in_complex());
+  for (auto c = c3t3.cells_in_complex_begin(); c != c3t3.cells_in_complex_end(); ++c) {
+    std::array<int, 4> t;
+    for (int j = 0; j < 4; ++j) {
+      Vertex_handle v = c->vertex(j);
+      auto [it, inserted] = index.emplace(v, int(pts.size()));
+      if (inserted) pts.push_back(to_eigen(v->point().point()));
+      t[j] = it->second;
+    }
+    tets.push_back(t);
+  }
+  if (tets.empty()) throw Error("tetrahedralize: CGAL produced no tetrahedra");
+  TetMesh out;
+  out.V.resize(pts.size(), 3);
+  for (size_t i = 0; i < pts.size(); ++i) out.V.row(i) = pts[i].transpose();
+  out.T.resize(tets.size(), 4);
+  for (size_t t = 0; t < tets.size(); ++t) {
+    auto& q = tets[t];
+    Eigen::Vector3d a = pts[q[0]], b = pts[q[1]], c = pts[q[2]], d = pts[q[3]];
+    if ((b - a).dot((c - a).cross(d - a)) < 0) std::swap(q[2], q[3]);
+    out.T.row(t) << q[0], q[1], q[2], q[3];
+  }
+  report(progress, "tetrahedralize/extract", 1);
+  return out;
+}
+
+namespace cgal_internal {
+
+TriMesh remesh_surface(const TriMesh& surface, double facet_size, double facet_distance,
+                       unsigned seed) {
+  require_closed_manifold(surface, "surface");
+  CGAL::get_default_random() = CGAL::Random(seed);
+  SurfaceMesh sm = to_surface_mesh(surface, "surface");
+  CGAL::Random rng(seed);
+  Domain domain(sm, &rng);
+  namespace P = CGAL::parameters;
+  Criteria criteria(P::facet_angle = 25, P::facet_size = facet_size,
+                    P::facet_distance = facet_distance);
+  C3t3 c3t3;
+  double area = surface_area(surface.V, surface.F);
+  int npts = int(std::clamp(area / (facet_size * facet_size) / 16, 20.0, 400.0));
+  insert_initial_points(c3t3, domain, surface, npts, 2.5 * facet_size);
+  CGAL::refine_mesh_3(c3t3, domain, criteria, P::no_perturb(), P::no_exude(), P::no_odt(),
+                      P::no_lloyd(), P::no_reset_c3t3(), P::manifold());
+
+  // Boundary facets, oriented with the inside cell behind them.
+  std::unordered_map<Vertex_handle, int> index;
+  std::vector<Eigen::Vector3d> pts;
+  std::vector<std::array<int, 3>> faces;
+  const Tr& tr = c3t3.triangulation();
+  for (auto f = c3t3.facets_in_complex_begin(); f != c3t3.facets_in_complex_end(); ++f) {
+    Tr::Cell_handle c = f->first;
+    int i = f->second;
+    if (!c3t3.is_in_complex(c)) {
+      Tr::Facet mf = tr.mirror_facet(*f);
+      c = mf.first, i = mf.second;
+    }
+    std::array<Vertex_handle, 3> vh;
+    for (int j = 0; j < 3; ++j) vh[j] = c->vertex(Tr::vertex_triple_index(i, j));
+    // Orient so that the inside vertex c->vertex(i) lies below the triangle.
+    if (CGAL::orientation(vh[0]->point().point(), vh[1]->point().point(), vh[2]->point().point(),
+                          c->vertex(i)->point().point()) == CGAL::POSITIVE)
+      std::swap(vh[1], vh[2]);
+    std::array<int, 3> t;
+    for (int j = 0; j < 3; ++j) {
+      auto [it, inserted] = index.emplace(vh[j], int(pts.size()));
+      if (inserted) pts.push_back(to_eigen(vh[j]->point().point()));
+      t[j] = it->second;
+    }
+    faces.push_back(t);
+  }
+  TriMesh out;
+  out.V.resize(pts.size(), 3);
+  for (size_t i = 0; i < pts.size(); ++i) out.V.row(i) = pts[i].transpose();
+  out.F.resize(faces.size(), 3);
+  for (size_t i = 0; i < faces.size(); ++i) out.F.row(i) << faces[i][0], faces[i][1], faces[i][2];
+  return out;
+}
+
+}  // namespace cgal_internal
+}  // namespace shapemap

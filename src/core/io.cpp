@@ -1,0 +1,324 @@
+// Format dispatch, atomic writes, landmark files, and the shared parsing helpers.
+// The readers themselves are in io_surface.cpp and io_volume.cpp.
+#include "shapemap/io.h"
+#include "io_detail.h"
+#include <Eigen/Geometry>
+#include <unistd.h>
+#include <atomic>
+#include <cerrno>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+
+namespace fs = std::filesystem;
+
+namespace shapemap {
+namespace detail {
+
+std::string quote(std::string_view tok) {
+  std::string s = "'";
+  size_t n = std::min<size_t>(tok.size(), 32);
+  for (size_t i = 0; i < n; ++i) {
+    unsigned char c = static_cast<unsigned char>(tok[i]);
+    if (c >= 32 && c < 127) {
+      s += char(c);
+    } else {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\x%02x", c);
+      s += buf;
+    }
+  }
+  if (tok.size() > n) s += "...";
+  return s + "'";
+}
+
+std::string read_file_bytes(const std::string& path) {
+  std::error_code ec;
+  fs::file_status st = fs::status(path, ec);
+  if (ec || !fs::exists(st)) throw InputError(path + ": cannot open (no such file)");
+  if (fs::is_directory(st)) throw InputError(path + ": cannot open (is a folder)");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot open (" + std::strerror(errno) + ")");
+  std::string data;
+  if (fs::is_regular_file(st)) {
+    auto size = fs::file_size(path, ec);
+    if (!ec) {
+      // One read into place; a file that changed size meanwhile is read to its end below.
+      data.resize(size_t(size));
+      in.read(data.data(), std::streamsize(size));
+      data.resize(size_t(in.gcount()));
+      if (in.bad()) throw InputError(path + ": read error");
+      if (!in) return data;
+    }
+  }
+  char buf[1 << 16];
+  while (in.read(buf, sizeof buf) || in.gcount() > 0) data.append(buf, size_t(in.gcount()));
+  if (in.bad()) throw InputError(path + ": read error");
+  return data;
+}
+
+void write_bytes_atomic(const std::string& path, const std::string& bytes) {
+  if (path.empty()) throw InputError("output file: empty path");
+  static std::atomic<unsigned> counter{0};
+  fs::path p(path);
+  fs::path dir = p.has_parent_path() ? p.parent_path() : fs::path(".");
+  std::string tmp = (dir / ("." + p.filename().string() + ".tmp-" + std::to_string(getpid()) + "-" +
+                            std::to_string(counter++)))
+                        .string();
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) throw InputError(path + ": cannot write (" + std::strerror(errno) + ")");
+    out.write(bytes.data(), std::streamsize(bytes.size()));
+    out.flush();
+    if (!out) {
+      out.close();
+      std::error_code ec;
+      fs::remove(tmp, ec);
+      throw InputError(path + ": write failed (disk full?)");
+    }
+  }
+  std::error_code ec;
+  fs::rename(tmp, p, ec);
+  if (ec) {
+    std::error_code ec2;
+    fs::remove(tmp, ec2);
+    throw InputError(path + ": cannot write (" + ec.message() + ")");
+  }
+}
+
+std::string extension(const std::string& path) {
+  std::string name = fs::path(path).filename().string();
+  size_t dot = name.rfind('.');
+  if (dot == std::string::npos || dot == 0) return "";
+  std::string e = name.substr(dot);
+  for (char& c : e)
+    if (c >= 'A' && c <= 'Z') c = char(c - 'A' + 'a');
+  return e;
+}
+
+void orient_tets_positive(TetMesh& mesh) {
+  // Serial: cheap, and no thread start-up for the many small files of the tests.
+  Eigen::Index neg = 0, pos = 0;
+  for (Eigen::Index t = 0; t < mesh.T.rows(); ++t) {
+    Eigen::Vector3d a = mesh.V.row(mesh.T(t, 0)), b = mesh.V.row(mesh.T(t, 1)), c = mesh.V.row(mesh.T(t, 2)),
+                    d = mesh.V.row(mesh.T(t, 3));
+    double v = (b - a).dot((c - a).cross(d - a));
+    neg += v < 0;
+    pos += v > 0;
+  }
+  if (neg > pos)
+    for (Eigen::Index t = 0; t < mesh.T.rows(); ++t) std::swap(mesh.T(t, 2), mesh.T(t, 3));
+}
+
+Eigen::MatrixXd to_matrix(const std::vector<double>& flat, int cols) {
+  Eigen::Index rows = Eigen::Index(flat.size() / size_t(cols));
+  Eigen::MatrixXd M(rows, cols);
+  for (Eigen::Index i = 0; i < rows; ++i)
+    for (int j = 0; j < cols; ++j) M(i, j) = flat[size_t(i) * cols + j];
+  return M;
+}
+
+Eigen::MatrixXi to_matrix(const std::vector<int>& flat, int cols) {
+  Eigen::Index rows = Eigen::Index(flat.size() / size_t(cols));
+  Eigen::MatrixXi M(rows, cols);
+  for (Eigen::Index i = 0; i < rows; ++i)
+    for (int j = 0; j < cols; ++j) M(i, j) = flat[size_t(i) * cols + j];
+  return M;
+}
+
+}  // namespace detail
+
+using namespace detail;
+
+void write_text_atomic(const std::string& path, const std::string& text) {
+  write_bytes_atomic(path, text);
+}
+
+void write_binary_atomic(const std::string& path, const std::string& bytes) {
+  write_bytes_atomic(path, bytes);
+}
+
+bool is_volume_path(const std::string& path) {
+  std::string e = extension(path);
+  return e == ".mesh" || e == ".vtk" || e == ".msh" || e == ".node" || e == ".ele";
+}
+
+bool is_surface_path(const std::string& path) {
+  std::string e = extension(path);
+  return e == ".obj" || e == ".off" || e == ".ply" || e == ".stl";
+}
+
+TriMesh read_surface(const std::string& path) {
+  std::string e = extension(path);
+  if (e == ".obj") return read_obj(path);
+  if (e == ".off") return read_off(path);
+  if (e == ".ply") return read_ply(path);
+  if (e == ".stl") return read_stl(path);
+  throw InputError(path + ": unknown surface format '" + e + "' (use .obj .off .ply .stl)");
+}
+
+static void check_writable(const std::string& path, const TriMesh& m) {
+  if (m.V.cols() != 3 || m.F.cols() != 3)
+    throw Error(path + ": cannot write a surface with V " + std::to_string(m.V.cols()) +
+                " columns and F " + std::to_string(m.F.cols()) + " columns");
+  if (m.F.size() > 0 && (m.F.minCoeff() < 0 || m.F.maxCoeff() >= m.V.rows()))
+    throw Error(path + ": cannot write a surface with face indices out of range");
+}
+
+void write_surface(const std::string& path, const TriMesh& mesh) {
+  std::string e = extension(path);
+  if (e != ".obj" && e != ".off" && e != ".ply" && e != ".stl")
+    throw InputError(path + ": unknown surface format '" + e + "' (use .obj .off .ply .stl)");
+  check_writable(path, mesh);
+  if (e == ".obj") return write_obj(path, mesh);
+  if (e == ".off") return write_off(path, mesh);
+  if (e == ".ply") return write_ply(path, mesh);
+  return write_stl(path, mesh);
+}
+
+TetMesh read_volume(const std::string& path) {
+  std::string e = extension(path);
+  TetMesh m;
+  if (e == ".mesh")
+    m = read_medit(path);
+  else if (e == ".vtk")
+    m = read_vtk(path);
+  else if (e == ".msh")
+    m = read_gmsh(path);
+  else if (e == ".node" || e == ".ele")
+    m = read_tetgen(path);
+  else
+    throw InputError(path + ": unknown volume format '" + e + "' (use .vtk .mesh .msh .node/.ele)");
+  orient_tets_positive(m);
+  return m;
+}
+
+static void check_writable(const std::string& path, const TetMesh& m) {
+  if (m.V.cols() != 3 || m.T.cols() != 4)
+    throw Error(path + ": cannot write a tet mesh with V " + std::to_string(m.V.cols()) +
+                " columns and T " + std::to_string(m.T.cols()) + " columns");
+  if (m.T.size() > 0 && (m.T.minCoeff() < 0 || m.T.maxCoeff() >= m.V.rows()))
+    throw Error(path + ": cannot write a tet mesh with indices out of range");
+}
+
+void write_volume(const std::string& path, const TetMesh& mesh) {
+  std::string e = extension(path);
+  if (!is_volume_path(path))
+    throw InputError(path + ": unknown volume format '" + e + "' (use .vtk .mesh .msh .node/.ele)");
+  check_writable(path, mesh);
+  if (e == ".vtk") return write_vtk(path, mesh);
+  if (e == ".mesh") return write_medit(path, mesh);
+  if (e == ".msh") return write_gmsh(path, mesh);
+  return write_tetgen(path, mesh);
+}
+
+void write_vtk(const std::string& path, const TetMesh& mesh,
+               const std::vector<std::pair<std::string, Eigen::VectorXd>>& point_data,
+               const std::vector<std::pair<std::string, Eigen::VectorXd>>& cell_data) {
+  check_writable(path, mesh);
+  const Eigen::Index n = mesh.V.rows(), m = mesh.T.rows();
+  for (auto& d : point_data)
+    if (d.second.size() != n)
+      throw Error(path + ": point data '" + d.first + "' has " + std::to_string(d.second.size()) +
+                  " values for " + std::to_string(n) + " vertices");
+  for (auto& d : cell_data)
+    if (d.second.size() != m)
+      throw Error(path + ": cell data '" + d.first + "' has " + std::to_string(d.second.size()) +
+                  " values for " + std::to_string(m) + " tets");
+  std::string s;
+  s.reserve(size_t(n) * 60 + size_t(m) * 40);
+  s += "# vtk DataFile Version 3.0\nshapemap tetrahedral mesh\nASCII\nDATASET UNSTRUCTURED_GRID\n";
+  s += "POINTS " + std::to_string(n) + " double\n";
+  for (Eigen::Index i = 0; i < n; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      if (j) s += ' ';
+      append_double(s, mesh.V(i, j));
+    }
+    s += '\n';
+  }
+  s += "CELLS " + std::to_string(m) + " " + std::to_string(5 * m) + "\n";
+  for (Eigen::Index t = 0; t < m; ++t) {
+    s += '4';
+    for (int j = 0; j < 4; ++j) {
+      s += ' ';
+      append_int(s, mesh.T(t, j));
+    }
+    s += '\n';
+  }
+  s += "CELL_TYPES " + std::to_string(m) + "\n";
+  for (Eigen::Index t = 0; t < m; ++t) s += "10\n";
+  auto name_of = [](std::string name) {
+    for (char& c : name)
+      if (c == ' ' || c == '\t' || c == '\n' || c == '\r') c = '_';
+    return name.empty() ? std::string("data") : name;
+  };
+  auto data = [&](const char* what, Eigen::Index count,
+                  const std::vector<std::pair<std::string, Eigen::VectorXd>>& fields) {
+    if (fields.empty()) return;
+    s += std::string(what) + " " + std::to_string(count) + "\n";
+    for (auto& f : fields) {
+      s += "SCALARS " + name_of(f.first) + " double 1\nLOOKUP_TABLE default\n";
+      for (Eigen::Index i = 0; i < count; ++i) {
+        append_double(s, f.second(i));
+        s += '\n';
+      }
+    }
+  };
+  data("POINT_DATA", n, point_data);
+  data("CELL_DATA", m, cell_data);
+  write_bytes_atomic(path, s);
+}
+
+std::vector<int> read_landmarks(const std::string& path, const Eigen::MatrixXd& V,
+                                const std::vector<int>& candidates) {
+  const int n = int(V.rows());
+  for (int c : candidates)
+    if (c < 0 || c >= n)
+      throw InputError(path + ": landmark candidate vertex " + std::to_string(c) + " out of range (" +
+                       std::to_string(n) + " vertices)");
+  std::string data = read_file_bytes(path);
+  Parser P(path, data);
+  P.comment = '#';
+  std::vector<int> out;
+  for (;;) {
+    P.skip_space();
+    if (P.eof()) break;
+    const int line = P.line();
+    std::string_view tok[4];
+    int k = 0;
+    while (k < 4 && !P.at_eol()) tok[k++] = P.line_token();
+    if (k == 1) {
+      long long i = P.to_int(tok[0], "vertex index");
+      if (i < 0 || i >= n)
+        P.fail_at(line, "landmark vertex " + std::to_string(i) + " out of range (" + std::to_string(n) +
+                            " vertices)");
+      out.push_back(int(i));
+    } else if (k == 3) {
+      Eigen::RowVector3d x(P.to_double(tok[0], "x"), P.to_double(tok[1], "y"), P.to_double(tok[2], "z"));
+      if (n == 0) P.fail_at(line, "no vertices to snap the landmark to");
+      int best = -1;
+      double bd = std::numeric_limits<double>::infinity();
+      auto consider = [&](int v) {
+        double d = (V.row(v) - x).squaredNorm();
+        if (d < bd || best < 0) {
+          bd = d;
+          best = v;
+        }
+      };
+      if (candidates.empty())
+        for (int v = 0; v < n; ++v) consider(v);
+      else
+        for (int v : candidates) consider(v);
+      out.push_back(best);
+    } else {
+      P.fail_at(line, "expected a vertex index or 'x y z', found " + std::to_string(k) +
+                          (k == 4 ? " or more values" : " values"));
+    }
+    P.skip_line();
+  }
+  if (out.empty()) throw InputError(path + ": no landmarks");
+  return out;
+}
+
+}  // namespace shapemap

@@ -1,0 +1,84 @@
+// Metrics of ball maps: D_V (Eq. 45), E_I (Eq. 2), foldings, boundary-on-sphere error.
+#include "shapemap/eval/ball_metrics.h"
+#include "shapemap/error.h"
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+namespace shapemap {
+
+namespace {
+
+// Linear-interpolated percentile q in [0,1] of sorted values.
+double percentile(const std::vector<double>& s, double q) {
+  if (s.empty()) return 0;
+  const double pos = q * double(s.size() - 1);
+  const size_t i = size_t(std::floor(pos));
+  const size_t j = std::min(s.size() - 1, i + 1);
+  const double t = pos - double(i);
+  return (1 - t) * s[i] + t * s[j];
+}
+
+}  // namespace
+
+Eigen::VectorXd ball_volume_distortion(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T,
+                                       const Eigen::MatrixXd& f) {
+  if (f.rows() != V.rows() || f.cols() != 3)
+    throw InputError("ball map: expected " + std::to_string(V.rows()) + "×3 coordinates, got " +
+                     std::to_string(f.rows()) + "×" + std::to_string(f.cols()));
+  const Eigen::VectorXd ve = tet_volumes(V, T), vf = tet_volumes(f, T);
+  double Se = 0, Sf = 0;
+  for (Eigen::Index t = 0; t < ve.size(); ++t) {
+    Se += ve(t);
+    Sf += vf(t);
+  }
+  Eigen::VectorXd D(ve.size());
+  for (Eigen::Index t = 0; t < ve.size(); ++t) {
+    const double a = ve(t) / Se;
+    D(t) = std::abs((vf(t) / Sf - a) / a);  // Eq. 45
+  }
+  return D;
+}
+
+BallMetrics ball_metrics(const TetMesh& mesh, const Eigen::MatrixXd& f) {
+  BallMetrics m;
+  m.num_vertices = mesh.num_vertices();
+  m.num_tets = mesh.num_tets();
+  const Eigen::VectorXd D = ball_volume_distortion(mesh.V, mesh.T, f);
+  std::vector<double> s(D.data(), D.data() + D.size());
+  std::sort(s.begin(), s.end());
+  double sum = 0;
+  for (double d : s) sum += d;
+  m.dv_mean = s.empty() ? 0 : sum / double(s.size());
+  double var = 0;
+  for (double d : s) var += (d - m.dv_mean) * (d - m.dv_mean);
+  m.dv_sd = s.empty() ? 0 : std::sqrt(var / double(s.size()));
+  m.dv_p25 = percentile(s, 0.25);
+  m.dv_p50 = percentile(s, 0.50);
+  m.dv_p75 = percentile(s, 0.75);
+  m.dv_p95 = percentile(s, 0.95);
+  m.dv_max = s.empty() ? 0 : s.back();
+  // E_I (Eq. 2) and foldings.
+  const Eigen::VectorXd ve = tet_volumes(mesh.V, mesh.T), vf = tet_volumes(f, mesh.T);
+  double Ve = 0, Vf = 0, EV = 0;
+  for (Eigen::Index t = 0; t < ve.size(); ++t) {
+    Ve += ve(t);
+    Vf += vf(t);
+    EV += vf(t) * vf(t) / ve(t);
+    if (vf(t) > 0)
+      ++m.positive_tets;
+    else
+      ++m.negative_tets;
+  }
+  m.energy = Vf > 0 ? Ve / Vf * EV - Vf : std::numeric_limits<double>::infinity();
+  m.folded_tets = std::min(m.positive_tets, m.negative_tets);
+  const TetBoundary b = boundary_surface(mesh);
+  m.num_boundary_vertices = int(b.to_volume.size());
+  for (Eigen::Index k = 0; k < b.to_volume.size(); ++k)
+    m.boundary_sphere_error =
+        std::max(m.boundary_sphere_error, std::abs(f.row(b.to_volume(k)).norm() - 1.0));
+  for (Eigen::Index i = 0; i < f.rows(); ++i) m.max_radius = std::max(m.max_radius, f.row(i).norm());
+  return m;
+}
+
+}  // namespace shapemap

@@ -1,0 +1,166 @@
+// Sec. 6.1 distortion metrics of elastic correspondence. See eval/surface_distortion.h.
+#include "shapemap/eval/surface_distortion.h"
+
+#include "shapemap/error.h"
+#include "shapemap/geometry/curvature.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+namespace shapemap {
+
+namespace {
+
+Eigen::VectorXd lumped(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
+  Eigen::VectorXd m = Eigen::VectorXd::Zero(V.rows());
+  for (int f = 0; f < F.rows(); ++f) {
+    const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
+    const double A = 0.5 * (b - a).cross(c - a).norm();
+    for (int j = 0; j < 3; ++j) m(F(f, j)) += A / 3;
+  }
+  return m;
+}
+
+double median(Eigen::VectorXd v) {
+  if (v.size() == 0) return 0;
+  std::vector<double> s(v.data(), v.data() + v.size());
+  const size_t k = s.size() / 2;
+  std::nth_element(s.begin(), s.begin() + k, s.end());
+  double m = s[k];
+  if (s.size() % 2 == 0) m = 0.5 * (m + *std::max_element(s.begin(), s.begin() + k));
+  return m;
+}
+
+void check_map(const TriMesh& S, const TriMesh& T, const BarycentricMap& P, const char* name) {
+  validate_map(P, S.num_vertices(), T.num_faces(), 3, name);
+}
+
+}  // namespace
+
+Eigen::VectorXd conformal_distortion(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
+                                     const Eigen::MatrixXi& F) {
+  const int m = int(F.rows());
+  Eigen::VectorXd out(m);
+#pragma omp parallel for schedule(static)
+  for (int f = 0; f < m; ++f) {
+    const Eigen::Vector3d x0 = X.row(F(f, 0)), e1 = Eigen::Vector3d(X.row(F(f, 1))) - x0,
+                          e2 = Eigen::Vector3d(X.row(F(f, 2))) - x0;
+    const Eigen::Vector3d y0 = Y.row(F(f, 0)), d1 = Eigen::Vector3d(Y.row(F(f, 1))) - y0,
+                          d2 = Eigen::Vector3d(Y.row(F(f, 2))) - y0;
+    const double G00 = e1.dot(e1), G01 = e1.dot(e2), G11 = e2.dot(e2);
+    const double detG = e1.cross(e2).squaredNorm();
+    const double g00 = d1.dot(d1), g01 = d1.dot(d2), g11 = d2.dot(d2);
+    const double detg = d1.cross(d2).squaredNorm();
+    if (!(detG > 0)) {
+      out(f) = std::numeric_limits<double>::quiet_NaN();
+      continue;
+    }
+    // tr(G^-1 g) and det(G^-1 g) = detg/detG; MIPS = tr / sqrt(det) = s1/s2 + s2/s1
+    const double tr = (G11 * g00 - 2 * G01 * g01 + G00 * g11) / detG;
+    const double det = detg / detG;
+    out(f) = det > 0 ? std::max(0.0, tr / std::sqrt(det) - 2.0)
+                     : std::numeric_limits<double>::infinity();
+  }
+  return out;
+}
+
+Eigen::VectorXd area_distortion(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
+                                const Eigen::MatrixXi& F) {
+  const int m = int(F.rows());
+  Eigen::VectorXd out(m);
+#pragma omp parallel for schedule(static)
+  for (int f = 0; f < m; ++f) {
+    const Eigen::Vector3d x0 = X.row(F(f, 0)), y0 = Y.row(F(f, 0));
+    const double a0 = (Eigen::Vector3d(X.row(F(f, 1))) - x0)
+                          .cross(Eigen::Vector3d(X.row(F(f, 2))) - x0)
+                          .norm();
+    const double a1 = (Eigen::Vector3d(Y.row(F(f, 1))) - y0)
+                          .cross(Eigen::Vector3d(Y.row(F(f, 2))) - y0)
+                          .norm();
+    out(f) = std::log(a1 / a0);
+  }
+  return out;
+}
+
+SurfaceDistortion surface_distortion(const TriMesh& S, const TriMesh& T, const BarycentricMap& P,
+                                     const SurfaceDistortionOptions& opt) {
+  check_map(S, T, P, "surface_distortion: map");
+  Eigen::MatrixXd X = S.V, Xt = T.V;
+  if (opt.normalize_area) {
+    X = unit_area_normalization(S).apply(S.V);
+    Xt = unit_area_normalization(T).apply(T.V);
+  }
+  const Eigen::MatrixXd Y = map_positions(P, Xt, T.F);
+  SurfaceDistortion d;
+  const int m = S.num_faces();
+  d.conformal = conformal_distortion(X, Y, S.F);
+  d.area = area_distortion(X, Y, S.F);
+  const double lo = std::log(opt.min_area_ratio), hi = -lo;
+  // target surface normal at a mapped point: the normal of the face it lies in
+  const Eigen::MatrixXd Nt = face_normals(Xt, T.F);
+  for (int f = 0; f < m; ++f) {
+    double& c = d.conformal(f);
+    if (!(c <= opt.conformal_cap)) c = opt.conformal_cap;  // also NaN (degenerate source)
+    double& a = d.area(f);
+    const bool collapsed = !(a > std::log(opt.degenerate_tol));
+    if (collapsed) ++d.degenerate;
+    if (!(a >= lo)) a = lo;
+    if (a > hi) a = hi;
+    if (!collapsed) {
+      const Eigen::Vector3d y0 = Y.row(S.F(f, 0)), y1 = Y.row(S.F(f, 1)), y2 = Y.row(S.F(f, 2));
+      const Eigen::Vector3d n = (y1 - y0).cross(y2 - y0);
+      Eigen::Vector3d nt = Eigen::Vector3d::Zero();
+      for (int j = 0; j < 3; ++j) nt += Nt.row(P.elem(S.F(f, j))).transpose();
+      if (n.dot(nt) < 0) ++d.flipped;
+    }
+  }
+  if (m > 0) {
+    d.conformal_mean = d.conformal.mean();
+    d.conformal_median = median(d.conformal);
+    d.area_mean_abs = d.area.cwiseAbs().mean();
+    d.area_median_abs = median(d.area.cwiseAbs());
+  }
+  d.mean_curvature_error = mean_curvature_error(S, T, P, opt.normalize_area);
+  return d;
+}
+
+double mean_curvature_error(const TriMesh& S, const TriMesh& T, const BarycentricMap& P,
+                            bool normalize_area) {
+  check_map(S, T, P, "mean_curvature_error: map");
+  Eigen::MatrixXd X = S.V, Xt = T.V;
+  if (normalize_area) {
+    X = unit_area_normalization(S).apply(S.V);
+    Xt = unit_area_normalization(T).apply(T.V);
+  }
+  const Eigen::VectorXd H = mean_curvature(X, S.F);
+  const Eigen::VectorXd Ht = mean_curvature(Xt, T.F);
+  const Eigen::VectorXd M = lumped(X, S.F);
+  double s = 0;
+  for (int i = 0; i < P.size(); ++i) {
+    const int f = P.elem(i);
+    const double h = P.bary(i, 0) * Ht(T.F(f, 0)) + P.bary(i, 1) * Ht(T.F(f, 1)) +
+                     P.bary(i, 2) * Ht(T.F(f, 2));
+    const double r = h - H(i);
+    if (std::isfinite(r)) s += M(i) * r * r;
+  }
+  return std::sqrt(s);
+}
+
+double reversibility_error(const TriMesh& S, const TriMesh& T, const BarycentricMap& P,
+                           const BarycentricMap& Q, bool normalize_area) {
+  check_map(S, T, P, "reversibility_error: map P");
+  check_map(T, S, Q, "reversibility_error: map Q");
+  Eigen::MatrixXd X = S.V;
+  if (normalize_area) X = unit_area_normalization(S).apply(S.V);
+  const Eigen::MatrixXd QX = map_positions(Q, X, S.F);       // T vertices -> points on S
+  const Eigen::MatrixXd PQX = map_positions(P, QX, T.F);     // S vertices -> back on S
+  const Eigen::VectorXd M = lumped(X, S.F);
+  double s = 0;
+  for (int i = 0; i < X.rows(); ++i) s += M(i) * (PQX.row(i) - X.row(i)).squaredNorm();
+  return std::sqrt(s);
+}
+
+}  // namespace shapemap

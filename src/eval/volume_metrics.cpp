@@ -1,0 +1,123 @@
+// Volume map metrics: symmetric-volume-maps Sec. 6.1, Eqs. 18, 20, 27, 28.
+#include "shapemap/eval/volume_metrics.h"
+#include "shapemap/error.h"
+#include "shapemap/geometry/closest_point.h"
+#include "shapemap/geometry/mass.h"
+#include "shapemap/geometry/svd3.h"
+#include <Eigen/Dense>
+#include <cmath>
+#include <vector>
+
+namespace shapemap {
+
+double bbox_diagonal(const Eigen::MatrixXd& V) {
+  if (V.rows() == 0) return 0;
+  return (V.colwise().maxCoeff() - V.colwise().minCoeff()).norm();
+}
+
+VolumeMapMetrics volume_map_metrics(const TetMesh& source, const TetMesh& target,
+                                    const Eigen::MatrixXd& X, const BarycentricMap* P_ij,
+                                    const Eigen::MatrixXd* X_ji, const Eigen::MatrixXd* truth) {
+  const int ni = source.num_vertices(), m = source.num_tets();
+  if (X.rows() != ni || X.cols() != 3)
+    throw InputError("map: " + std::to_string(X.rows()) + " images for " + std::to_string(ni) +
+                     " source vertices");
+  VolumeMapMetrics r;
+  r.num_tets = m;
+  const double diag = bbox_diagonal(target.V);
+  Normalization ns = unit_volume_normalization(source), nt = unit_volume_normalization(target);
+  Eigen::MatrixXd Vs = ns.apply(source.V), Xn = nt.apply(X);
+
+  // Per tet: det J (inversion), |det J^| (column-normalized), f_ARAP (Eq. 19).
+  Eigen::VectorXd vol(m), detn(m), farap(m);
+  Eigen::VectorXi inv(m);
+#pragma omp parallel for schedule(static)
+  for (int k = 0; k < m; ++k) {
+    Eigen::Matrix3d Dm, Ds;
+    for (int j = 0; j < 3; ++j) {
+      Dm.col(j) = (Vs.row(source.T(k, j + 1)) - Vs.row(source.T(k, 0))).transpose();
+      Ds.col(j) = (Xn.row(source.T(k, j + 1)) - Xn.row(source.T(k, 0))).transpose();
+    }
+    vol(k) = std::abs(Dm.determinant()) / 6.0;
+    double dd = Dm.determinant();
+    Eigen::Matrix3d J = std::abs(dd) > 0 ? Eigen::Matrix3d(Ds * Dm.inverse()) : Eigen::Matrix3d::Zero();
+    double dj = J.determinant();
+    inv(k) = !(dj > 0);
+    Eigen::Matrix3d Jn = J;
+    bool ok = true;
+    for (int j = 0; j < 3; ++j) {
+      double l = J.col(j).norm();
+      if (l > 0) Jn.col(j) /= l; else ok = false;
+    }
+    detn(k) = ok ? std::abs(Jn.determinant()) : 0.0;
+    SignedSVD3 s = signed_svd3(J);
+    farap(k) = (s.S.array() - 1.0).square().sum();
+  }
+  double V = 0, ea = 0, dm = 0;
+  for (int k = 0; k < m; ++k) {
+    V += vol(k);
+    r.n_inv += inv(k);
+    ea += vol(k) * farap(k);
+    dm += vol(k) * detn(k);
+  }
+  r.inverted_fraction = m ? double(r.n_inv) / m : 0;
+  r.E_arap = V > 0 ? ea / (2 * V) : 0;  // Eq. 20, c = V (= 1 up to rounding)
+  r.det_mean = V > 0 ? dm / V : 0;
+  double var = 0;
+  for (int k = 0; k < m; ++k) var += vol(k) * (detn(k) - r.det_mean) * (detn(k) - r.det_mean);
+  r.det_sd = V > 0 ? std::sqrt(var / V) : 0;
+
+  // Eqs. 27-28 between the mapped boundary X(dM_i) and dM_j, at vertices.
+  TetBoundary bs = boundary_surface(source), bt = boundary_surface(target);
+  Eigen::MatrixXd Xb(bs.to_volume.size(), 3);
+  for (int b = 0; b < Xb.rows(); ++b) Xb.row(b) = X.row(bs.to_volume(b));
+  ClosestPoint3 to_target(bt.surface.V, bt.surface.F), to_mapped(Xb, bs.surface.F);
+  std::vector<ClosestPointResult> r1 = to_target.query(Xb), r2 = to_mapped.query(bt.surface.V);
+  double sum = 0, mx = 0;
+  for (auto& q : r1) {
+    double d = std::sqrt(std::max(0.0, q.sqdist));
+    sum += d;
+    mx = std::max(mx, d);
+  }
+  for (auto& q : r2) {
+    double d = std::sqrt(std::max(0.0, q.sqdist));
+    sum += d;
+    mx = std::max(mx, d);
+  }
+  const double cnt = double(r1.size() + r2.size());
+  r.d_avg = cnt > 0 && diag > 0 ? sum / cnt / diag : 0;
+  r.d_max = diag > 0 ? mx / diag : 0;
+
+  // Eq. 18 term (i,j), unit-volume frames.
+  if (P_ij && X_ji) {
+    validate_map(*P_ij, ni, target.num_tets(), 4, "map");
+    if (X_ji->rows() != target.num_vertices() || X_ji->cols() != 3)
+      throw InputError("reverse map: wrong number of rows");
+    Eigen::MatrixXd Xjin = ns.apply(*X_ji);  // target vertices' images, source unit frame
+    Eigen::VectorXd C = tet_lumped_mass(Vs, source.T);
+    double c = C.sum(), e = 0;
+    for (int v = 0; v < ni; ++v) {
+      Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
+      for (int q = 0; q < 4; ++q) p += P_ij->bary(v, q) * Xjin.row(target.T(P_ij->elem(v), q));
+      e += C(v) * (p - Vs.row(v)).squaredNorm();
+    }
+    r.E_R = e / (c * c);
+  }
+  if (truth) {
+    if (truth->rows() != ni || truth->cols() != 3)
+      throw InputError("truth: " + std::to_string(truth->rows()) + " rows for " +
+                       std::to_string(ni) + " source vertices");
+    r.has_truth = true;
+    double s = 0, mx2 = 0;
+    for (int v = 0; v < ni; ++v) {
+      double d = (X.row(v) - truth->row(v)).norm();
+      s += d;
+      mx2 = std::max(mx2, d);
+    }
+    r.truth_mean = diag > 0 ? s / ni / diag : 0;
+    r.truth_max = diag > 0 ? mx2 / diag : 0;
+  }
+  return r;
+}
+
+}  // namespace shapemap

@@ -1,0 +1,127 @@
+// CHOLMOD supernodal LL^T behind shapemap::SparseCholesky.
+//
+// The factor is owned through the raw CHOLMOD API (the matrix views come from Eigen's
+// CholmodSupport) so that solves can use their own cholmod_common: CHOLMOD only reads
+// the factor during cholmod_solve, and a cholmod_common per call makes concurrent
+// solve() calls on one factor thread-safe (HeatGeodesics::distances relies on it).
+// compute()/factorize() must not run concurrently with anything else on the object.
+#include "shapemap/geometry/sparse_cholesky.h"
+#include "shapemap/error.h"
+#include <Eigen/CholmodSupport>
+#include <string>
+
+namespace shapemap {
+
+struct SparseCholesky::Impl {
+  cholmod_common common;
+  cholmod_factor* factor = nullptr;
+  int n = 0;
+  Impl() {
+    cholmod_start(&common);
+    common.supernodal = CHOLMOD_SUPERNODAL;
+    common.final_asis = 1;
+    common.print = 0;
+    common.error_handler = nullptr;  // errors are reported by status codes; we throw
+  }
+  ~Impl() {
+    if (factor) cholmod_free_factor(&factor, &common);
+    cholmod_finish(&common);
+  }
+  // Lower-triangle view (stype = -1) of a compressed copy if needed.
+  void run_factorize(const Eigen::SparseMatrix<double>& A, bool analyze) {
+    if (A.rows() != A.cols())
+      throw Error("SparseCholesky: matrix is not square (" + std::to_string(A.rows()) + "x" +
+                  std::to_string(A.cols()) + ")");
+    Eigen::SparseMatrix<double> copy;
+    const Eigen::SparseMatrix<double>* M = &A;
+    if (!A.isCompressed()) {
+      copy = A;
+      copy.makeCompressed();
+      M = &copy;
+    }
+    cholmod_sparse view = Eigen::viewAsCholmod(M->selfadjointView<Eigen::Lower>());
+    if (analyze || !factor || int(A.rows()) != n) {
+      if (factor) cholmod_free_factor(&factor, &common);
+      n = int(A.rows());
+      factor = cholmod_analyze(&view, &common);
+      if (!factor || common.status < CHOLMOD_OK)
+        throw Error("SparseCholesky: symbolic analysis failed (CHOLMOD status " +
+                    std::to_string(common.status) + ")");
+    }
+    cholmod_factorize(&view, factor, &common);
+    if (common.status == CHOLMOD_NOT_POSDEF || factor->minor < factor->n) {
+      const std::string where = std::to_string(factor->minor);
+      cholmod_free_factor(&factor, &common);
+      n = 0;
+      throw Error("SparseCholesky: matrix is not positive definite (failed at column " + where + ")");
+    }
+    if (common.status < CHOLMOD_OK)
+      throw Error("SparseCholesky: numeric factorization failed (CHOLMOD status " +
+                  std::to_string(common.status) + ")");
+  }
+  // X = A^{-1} B for a column-major n×k block.
+  void run_solve(const double* B, int k, double* X) const {
+    if (!factor) throw Error("SparseCholesky: solve() before compute()");
+    cholmod_common c;
+    cholmod_start(&c);
+    c.print = 0;
+    c.error_handler = nullptr;
+    cholmod_dense b;
+    b.nrow = size_t(n);
+    b.ncol = size_t(k);
+    b.nzmax = size_t(n) * size_t(k);
+    b.d = size_t(n);
+    b.x = const_cast<double*>(B);  // read only
+    b.z = nullptr;
+    b.xtype = CHOLMOD_REAL;
+    b.dtype = CHOLMOD_DOUBLE;
+    cholmod_dense* x = cholmod_solve(CHOLMOD_A, factor, &b, &c);
+    if (!x) {
+      const int status = c.status;
+      cholmod_finish(&c);
+      throw Error("SparseCholesky: solve failed (CHOLMOD status " + std::to_string(status) + ")");
+    }
+    std::copy(static_cast<const double*>(x->x), static_cast<const double*>(x->x) + size_t(n) * k, X);
+    cholmod_free_dense(&x, &c);
+    cholmod_finish(&c);
+  }
+};
+
+SparseCholesky::SparseCholesky() : impl_(std::make_unique<Impl>()) {}
+SparseCholesky::~SparseCholesky() = default;
+SparseCholesky::SparseCholesky(SparseCholesky&&) noexcept = default;
+SparseCholesky& SparseCholesky::operator=(SparseCholesky&&) noexcept = default;
+
+void SparseCholesky::compute(const Eigen::SparseMatrix<double>& A) {
+  if (!impl_) impl_ = std::make_unique<Impl>();
+  impl_->run_factorize(A, true);
+}
+
+void SparseCholesky::factorize(const Eigen::SparseMatrix<double>& A) {
+  if (!impl_) impl_ = std::make_unique<Impl>();
+  impl_->run_factorize(A, false);
+}
+
+Eigen::VectorXd SparseCholesky::solve(const Eigen::VectorXd& b) const {
+  if (!impl_ || !impl_->factor) throw Error("SparseCholesky: solve() before compute()");
+  if (b.size() != impl_->n)
+    throw Error("SparseCholesky: right-hand side has " + std::to_string(b.size()) +
+                " rows, expected " + std::to_string(impl_->n));
+  Eigen::VectorXd x(b.size());
+  impl_->run_solve(b.data(), 1, x.data());
+  return x;
+}
+
+Eigen::MatrixXd SparseCholesky::solve(const Eigen::MatrixXd& B) const {
+  if (!impl_ || !impl_->factor) throw Error("SparseCholesky: solve() before compute()");
+  if (B.rows() != impl_->n)
+    throw Error("SparseCholesky: right-hand side has " + std::to_string(B.rows()) +
+                " rows, expected " + std::to_string(impl_->n));
+  Eigen::MatrixXd X(B.rows(), B.cols());
+  if (B.cols() > 0) impl_->run_solve(B.data(), int(B.cols()), X.data());
+  return X;
+}
+
+int SparseCholesky::rows() const { return impl_ ? impl_->n : 0; }
+
+}  // namespace shapemap

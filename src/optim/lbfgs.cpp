@@ -1,0 +1,116 @@
+// L-BFGS (Nocedal & Wright Algorithm 7.4/7.5): two-loop recursion over the last `memory`
+// pairs (s, y), initial Hessian scaling gamma = s'y / y'y (Eq. 7.20), pairs with too little
+// curvature skipped; step from a strong Wolfe line search or Armijo backtracking.
+// All vectors are allocated once before the first iteration.
+#include "shapemap/optim/lbfgs.h"
+
+#include "shapemap/error.h"
+#include "shapemap/optim/line_search.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace shapemap {
+
+LbfgsResult lbfgs_minimize(const Objective& f, Eigen::VectorXd& x, const LbfgsOptions& opt) {
+  if (opt.memory < 1) throw InputError("lbfgs_minimize: memory must be >= 1");
+  const Eigen::Index n = x.size();
+  const int m = opt.memory;
+  LbfgsResult res;
+  Eigen::MatrixXd S(n, m), Y(n, m);
+  Eigen::VectorXd rho(m), a(m);
+  Eigen::VectorXd g(n), g_new(n), d(n), x_new(n);
+  int stored = 0, newest = -1;  // circular buffer of pairs
+  double gamma = 1;
+
+  res.f = f(x, g);
+  res.evaluations = 1;
+  res.grad_norm = g.size() ? g.lpNorm<Eigen::Infinity>() : 0.0;
+  if (!std::isfinite(res.f)) throw Error("lbfgs_minimize: objective is not finite at the start");
+  if (res.grad_norm < opt.grad_tol) {
+    res.converged = true;
+    return res;
+  }
+
+  bool restarted = false;  // the last direction was steepest descent after a reset
+  while (res.iterations < opt.max_iterations) {
+    // Two-loop recursion: d = -H g.
+    d = g;
+    for (int k = 0; k < stored; ++k) {
+      const int i = (newest - k + m) % m;
+      a(i) = rho(i) * S.col(i).dot(d);
+      d.noalias() -= a(i) * Y.col(i);
+    }
+    d *= gamma;
+    for (int k = stored - 1; k >= 0; --k) {
+      const int i = (newest - k + m) % m;
+      const double b = rho(i) * Y.col(i).dot(d);
+      d.noalias() += (a(i) - b) * S.col(i);
+    }
+    d = -d;
+    double gd = g.dot(d);
+    if (!(gd < 0)) {  // not a descent direction (rounding): reset to steepest descent
+      stored = 0;
+      gamma = 1;
+      d = -g;
+      gd = g.dot(d);
+    }
+    // First step (no curvature information): unit length in x.
+    const double alpha0 = stored == 0 ? std::min(1.0, 1.0 / std::sqrt(-gd)) : 1.0;
+    LineSearchResult ls =
+        opt.wolfe ? strong_wolfe_search(f, x, res.f, g, d, alpha0, opt.c1, opt.c2,
+                                        opt.max_line_search, x_new, g_new)
+                  : armijo_search(f, x, res.f, g, d, alpha0, opt.c1, opt.max_line_search,
+                                  x_new, g_new);
+    res.evaluations += ls.evaluations;
+    if (!ls.ok) {
+      if (stored > 0 && !restarted) {  // retry once from steepest descent
+        stored = 0;
+        gamma = 1;
+        restarted = true;
+        continue;
+      }
+      // Keep any decrease the failed search found, then stop.
+      if (ls.alpha > 0 && ls.f < res.f) {
+        x.swap(x_new);
+        g.swap(g_new);
+        res.f = ls.f;
+        res.grad_norm = g.lpNorm<Eigen::Infinity>();
+      }
+      break;
+    }
+    restarted = false;
+    // Curvature pair; skipped when s'y <= 1e-10 |s| |y| (no positive curvature).
+    const int slot = (newest + 1) % m;
+    S.col(slot) = x_new - x;
+    Y.col(slot) = g_new - g;
+    const double sy = S.col(slot).dot(Y.col(slot));
+    const double yy = Y.col(slot).squaredNorm();
+    if (sy > 1e-10 * std::sqrt(S.col(slot).squaredNorm() * yy) && sy > 0) {
+      newest = slot;
+      rho(slot) = 1.0 / sy;
+      gamma = sy / yy;
+      stored = std::min(stored + 1, m);
+    } else if (stored == m) {
+      --stored;  // the slot held the oldest pair, now overwritten: drop it
+    }
+    const double f_old = res.f;
+    x.swap(x_new);
+    g.swap(g_new);
+    res.f = ls.f;
+    res.grad_norm = g.lpNorm<Eigen::Infinity>();
+    ++res.iterations;
+    if (res.grad_norm < opt.grad_tol) {
+      res.converged = true;
+      break;
+    }
+    if (opt.f_decrease_tol > 0 &&
+        f_old - res.f < opt.f_decrease_tol * std::max(1.0, std::abs(res.f))) {
+      res.converged = true;
+      break;
+    }
+  }
+  return res;
+}
+
+}  // namespace shapemap

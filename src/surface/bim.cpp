@@ -1,0 +1,679 @@
+// Blended Intrinsic Maps (Kim, Lipman, Funkhouser 2011). See bim.h for the pipeline and
+// docs/methods.md ("Blended Intrinsic Maps") for every deviation from the paper.
+#include "shapemap/surface/bim.h"
+#include "shapemap/adjacency.h"
+#include "shapemap/checks.h"
+#include "shapemap/error.h"
+#include "shapemap/geometry/geodesics.h"
+#include "shapemap/geometry/mass.h"
+#include "shapemap/geometry/sampling.h"
+#include <Spectra/MatOp/SparseSymMatProd.h>
+#include <Spectra/SymEigsSolver.h>
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numeric>
+#include <queue>
+
+namespace shapemap {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+std::uint64_t splitmix64(std::uint64_t& x) {
+  std::uint64_t z = (x += 0x9e3779b97f4a7c15ULL);
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+  return z ^ (z >> 31);
+}
+
+// Vertices within geodesic radius r of s along mesh edges (Dijkstra), with distances.
+void dijkstra_ball(const std::vector<std::vector<std::pair<int, double>>>& adj, int s, double r,
+                   std::vector<double>& dist, std::vector<int>& touched) {
+  using Item = std::pair<double, int>;
+  std::priority_queue<Item, std::vector<Item>, std::greater<Item>> pq;
+  touched.clear();
+  dist[s] = 0;
+  touched.push_back(s);
+  pq.push({0, s});
+  while (!pq.empty()) {
+    auto [d, v] = pq.top();
+    pq.pop();
+    if (d > dist[v]) continue;
+    for (auto [u, w] : adj[v]) {
+      double nd = d + w;
+      if (nd < dist[u] && nd <= r) {
+        if (!std::isfinite(dist[u])) touched.push_back(u);
+        dist[u] = nd;
+        pq.push({nd, u});
+      }
+    }
+  }
+}
+
+// AGD local maxima at scale r (Sec. 4), strongest first.
+std::vector<int> agd_maxima(const TriMesh& mesh, const Eigen::VectorXd& agd, double r, int max_count) {
+  const int n = mesh.num_vertices();
+  auto nb = vertex_neighbors(mesh.F, n);
+  auto greater = [&](int a, int b) { return agd(a) > agd(b) || (agd(a) == agd(b) && a < b); };
+  std::vector<int> cand;
+  for (int v = 0; v < n; ++v) {
+    bool is_max = true;
+    for (int u : nb[v])
+      if (greater(u, v)) {
+        is_max = false;
+        break;
+      }
+    if (is_max) cand.push_back(v);
+  }
+  std::vector<std::vector<std::pair<int, double>>> adj(n);
+  for (int v = 0; v < n; ++v)
+    for (int u : nb[v]) adj[v].push_back({u, (mesh.V.row(u) - mesh.V.row(v)).norm()});
+  std::vector<double> dist(n, std::numeric_limits<double>::infinity());
+  std::vector<int> touched, out;
+  for (int v : cand) {
+    dijkstra_ball(adj, v, r, dist, touched);
+    bool is_max = true;
+    for (int u : touched)
+      if (greater(u, v)) is_max = false;
+    for (int u : touched) dist[u] = std::numeric_limits<double>::infinity();
+    if (is_max) out.push_back(v);
+  }
+  std::sort(out.begin(), out.end(), greater);
+  if (int(out.size()) > max_count) out.resize(max_count);
+  return out;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------
+BIMSurface bim_prepare(const TriMesh& input, const std::string& name, const BIMOptions& opt,
+                       const std::vector<int>& landmarks, const ProgressCallback& progress) {
+  BIMSurface s;
+  auto t0 = Clock::now();
+  TriMesh m = input;
+  require_genus0_surface(m, name, opt.min_vertices);
+  if (m.num_faces() != input.num_faces() || m.num_vertices() != input.num_vertices())
+    throw Error(name + ": the input check changed the mesh size");
+  s.V_input = input.V;
+  s.F_input = input.F;
+  s.normalization = unit_area_normalization(m);
+  s.mesh.V = s.normalization.apply(m.V);
+  s.mesh.F = m.F;
+  const int n = m.num_vertices();
+  for (int v : landmarks)
+    if (v < 0 || v >= n) throw InputError(name + ": landmark vertex " + std::to_string(v) + " out of range");
+  s.mass = lumped_mass(s.mesh.V, s.mesh.F);
+  s.mass /= s.mass.sum();
+  s.timings.push_back({"checks_normalize", seconds_since(t0)});
+  report(progress, "bim/prepare " + name, 0.1);
+
+  // P_even (Sec. 5): farthest-point samples from a random vertex; heat geodesics from them.
+  t0 = Clock::now();
+  HeatGeodesics geo(s.mesh.V, s.mesh.F, opt.heat_t_factor);
+  std::uint64_t rs = opt.seed ^ 0x5bd1e995ULL ^ std::uint64_t(n);
+  int first = int(splitmix64(rs) % std::uint64_t(n));
+  const int k = std::min(opt.num_even, n);
+  s.even = farthest_point_sampling_graph(s.mesh.V, s.mesh.F, k, first);
+  s.even_dist = geo.distances(s.even);
+  s.timings.push_back({"sampling_geodesics", seconds_since(t0)});
+  report(progress, "bim/prepare " + name, 0.5);
+
+  // AGD (Sec. 4): each P_even point stands for area 1/k of the unit-area surface.
+  t0 = Clock::now();
+  s.agd = s.even_dist.rowwise().mean();
+  if (!landmarks.empty()) {
+    s.features = landmarks;
+  } else {
+    s.features = agd_maxima(s.mesh, s.agd, opt.feature_radius, opt.max_features);
+    // Too few maxima (nearly symmetric blobs): add spread samples (FPS order).
+    for (int v : s.even) {
+      if (int(s.features.size()) >= opt.min_features) break;
+      if (std::find(s.features.begin(), s.features.end(), v) == s.features.end()) s.features.push_back(v);
+    }
+  }
+  // Gaussian interpolation weights from P_even to all vertices (Sec. 5).
+  const double rho = opt.interpolation_sigma > 0 ? opt.interpolation_sigma : 1.0 / std::sqrt(double(k));
+  {
+    std::vector<std::vector<std::pair<int, double>>> rows(n);
+#pragma omp parallel for schedule(static)
+    for (int v = 0; v < n; ++v) {
+      double sum = 0;
+      int nearest = 0;
+      for (int j = 0; j < k; ++j) {
+        double d = s.even_dist(v, j);
+        if (d < s.even_dist(v, nearest)) nearest = j;
+        if (d < 3 * rho) {
+          double w = std::exp(-d * d / (2 * rho * rho));
+          rows[v].push_back({j, w});
+          sum += w;
+        }
+      }
+      if (rows[v].empty() || !(sum > 0)) {
+        rows[v].assign(1, {nearest, 1.0});
+        sum = 1;
+      }
+      for (auto& e : rows[v]) e.second /= sum;
+    }
+    std::vector<Eigen::Triplet<double>> trip;
+    for (int v = 0; v < n; ++v)
+      for (auto& e : rows[v]) trip.emplace_back(v, e.first, e.second);
+    s.interp.resize(n, k);
+    s.interp.setFromTriplets(trip.begin(), trip.end());
+  }
+  // Visiting order of P_even: greedy nearest-neighbour tour (coherent walks).
+  {
+    std::vector<char> used(k, 0);
+    int cur = 0;
+    s.even_chain.clear();
+    for (int it = 0; it < k; ++it) {
+      s.even_chain.push_back(cur);
+      used[cur] = 1;
+      int best = -1;
+      for (int j = 0; j < k; ++j)
+        if (!used[j] && (best < 0 || s.even_dist(s.even[j], cur) < s.even_dist(s.even[best], cur))) best = j;
+      if (best < 0) break;
+      cur = best;
+    }
+  }
+  s.timings.push_back({"features", seconds_since(t0)});
+  report(progress, "bim/prepare " + name, 0.6);
+
+  // Conformal flattening (Sec. 4), punctured at a face of the AGD minimum (the middle of
+  // the body, away from the features).
+  t0 = Clock::now();
+  ConformalFlatteningOptions fo;
+  {
+    int vmin = 0;
+    s.agd.minCoeff(&vmin);
+    for (int f = 0; f < s.mesh.num_faces() && fo.pole_face < 0; ++f)
+      for (int c = 0; c < 3; ++c)
+        if (s.mesh.F(f, c) == vmin) fo.pole_face = f;
+  }
+  s.flat = conformal_flattening(s.mesh.V, s.mesh.F, fo);
+  s.hom.resize(n);
+  for (int v = 0; v < n; ++v) s.hom[v] = plane_from_sphere(s.flat.sphere.row(v).transpose());
+  s.locator = std::make_shared<SphereLocator>(s.flat.sphere, s.mesh.F);
+  s.timings.push_back({"flattening", seconds_since(t0)});
+  report(progress, "bim/prepare " + name, 0.9);
+
+  t0 = Clock::now();
+  s.closest = std::make_shared<ClosestPoint3>(s.mesh.V, s.mesh.F);
+  // BFS order (walk starts from the parent's answer).
+  {
+    auto nb = vertex_neighbors(s.mesh.F, n);
+    s.bfs_order.clear();
+    s.bfs_parent.assign(n, -2);
+    for (int root = 0; root < n; ++root) {
+      if (s.bfs_parent[root] != -2) continue;
+      s.bfs_parent[root] = -1;
+      size_t head = s.bfs_order.size();
+      s.bfs_order.push_back(root);
+      while (head < s.bfs_order.size()) {
+        int v = s.bfs_order[head++];
+        for (int u : nb[v])
+          if (s.bfs_parent[u] == -2) {
+            s.bfs_parent[u] = v;
+            s.bfs_order.push_back(u);
+          }
+      }
+    }
+  }
+  s.timings.push_back({"closest_point_tree", seconds_since(t0)});
+  report(progress, "bim/prepare " + name, 1.0);
+  return s;
+}
+
+// ---------------------------------------------------------------------------------------
+std::vector<BIMCandidate> bim_candidates(const BIMSurface& src, const BIMSurface& dst,
+                                         const BIMOptions& opt, long long* total) {
+  std::vector<BIMCandidate> all;
+  const int n1 = int(src.features.size()), n2 = int(dst.features.size());
+  const bool fixed = !opt.landmarks_A.empty();
+  if (fixed) {
+    if (n1 != n2) throw InputError("landmarks: the two lists have different lengths");
+    for (int a = 0; a < n1; ++a)
+      for (int b = a + 1; b < n1; ++b)
+        for (int c = b + 1; c < n1; ++c) {
+          BIMCandidate cd;
+          cd.source = {a, b, c};
+          cd.target = {a, b, c};
+          all.push_back(cd);
+        }
+  } else {
+    static const int perms[6][3] = {{0, 1, 2}, {1, 2, 0}, {2, 0, 1}, {0, 2, 1}, {2, 1, 0}, {1, 0, 2}};
+    for (int a = 0; a < n1; ++a)
+      for (int b = a + 1; b < n1; ++b)
+        for (int c = b + 1; c < n1; ++c)
+          for (int x = 0; x < n2; ++x)
+            for (int y = x + 1; y < n2; ++y)
+              for (int z = y + 1; z < n2; ++z) {
+                int t[3] = {x, y, z};
+                for (auto& p : perms) {
+                  BIMCandidate cd;
+                  cd.source = {a, b, c};
+                  cd.target = {t[p[0]], t[p[1]], t[p[2]]};
+                  all.push_back(cd);
+                }
+              }
+  }
+  if (total) *total = (long long)all.size();
+  // Sec. 6.2: random removal down to max_candidates (seeded, order kept).
+  if (opt.max_candidates > 0 && int(all.size()) > opt.max_candidates) {
+    std::vector<int> idx(all.size());
+    std::iota(idx.begin(), idx.end(), 0);
+    std::uint64_t rs = opt.seed * 0x2545F4914F6CDD1DULL + 17;
+    for (int i = 0; i < opt.max_candidates; ++i) {
+      int j = i + int(splitmix64(rs) % std::uint64_t(idx.size() - i));
+      std::swap(idx[i], idx[j]);
+    }
+    idx.resize(opt.max_candidates);
+    std::sort(idx.begin(), idx.end());
+    std::vector<BIMCandidate> kept;
+    kept.reserve(idx.size());
+    for (int i : idx) kept.push_back(all[i]);
+    all.swap(kept);
+  }
+  std::vector<BIMCandidate> valid;
+  valid.reserve(all.size());
+  for (auto& cd : all) {
+    Homogeneous z[3], w[3];
+    for (int k = 0; k < 3; ++k) {
+      z[k] = src.hom[src.features[cd.source[k]]];
+      w[k] = dst.hom[dst.features[cd.target[k]]];
+    }
+    try {
+      cd.mobius = Mobius::from_three_points(z, w);
+    } catch (const Error&) {
+      continue;  // feature points numerically coincident on the sphere: no map
+    }
+    valid.push_back(cd);
+  }
+  return valid;
+}
+
+// ---------------------------------------------------------------------------------------
+namespace {
+
+// Target-surface area factor at a located point.
+double located_area_factor(const BIMSurface& dst, const SphereLocator::Location& loc) {
+  double mu = 0;
+  for (int k = 0; k < 3; ++k) mu += loc.bary(k) * dst.flat.area_factor(dst.mesh.F(loc.face, k));
+  return mu;
+}
+
+// Eq. 2: c = 2 / (r + 1/r) with r the area ratio.
+inline double confidence_from_ratio(double r) {
+  if (!(r > 0) || !std::isfinite(r)) return 0.0;
+  return 2.0 / (r + 1.0 / r);
+}
+
+// Confidence of m at the P_even points of src (in P_even order), walking in chain order.
+void confidence_at_even(const BIMSurface& src, const BIMSurface& dst, const Mobius& m, double* out) {
+  int face = -1;
+  for (int j : src.even_chain) {
+    int v = src.even[j];
+    Homogeneous w = m(src.hom[v]);
+    auto loc = dst.locator->locate(sphere_from_plane(w), face);
+    face = loc.face;
+    double r = src.flat.area_factor(v) * m.sphere_area_factor(src.hom[v]) / located_area_factor(dst, loc);
+    out[j] = confidence_from_ratio(r);
+  }
+}
+
+// Per-vertex confidence of a map given by mapped positions X (n×3) of the source mesh:
+// Eq. 2 with N_p the one-ring.
+Eigen::VectorXd map_confidence(const TriMesh& src, const Eigen::MatrixXd& X) {
+  Eigen::VectorXd a0 = triangle_areas(src.V, src.F), a1 = triangle_areas(X, src.F);
+  Eigen::VectorXd s0 = Eigen::VectorXd::Zero(src.num_vertices()), s1 = s0;
+  for (int f = 0; f < src.num_faces(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      s0(src.F(f, k)) += a0(f);
+      s1(src.F(f, k)) += a1(f);
+    }
+  Eigen::VectorXd c(src.num_vertices());
+  for (int v = 0; v < src.num_vertices(); ++v) c(v) = s0(v) > 0 ? confidence_from_ratio(s1(v) / s0(v)) : 0.0;
+  return c;
+}
+
+// Bary coordinates w.r.t. the oriented face -> w.r.t. the input face (same vertices).
+void to_input_faces(const Eigen::MatrixXi& Fo, const Eigen::MatrixXi& Fi, BarycentricMap& map) {
+  for (int i = 0; i < map.size(); ++i) {
+    int f = map.elem(i);
+    Eigen::RowVector3d b = map.bary.row(i), out = Eigen::RowVector3d::Zero();
+    for (int k = 0; k < 3; ++k)
+      for (int j = 0; j < 3; ++j)
+        if (Fi(f, j) == Fo(f, k)) out(j) = b(k);
+    map.bary.row(i) = out;
+  }
+}
+
+}  // namespace
+
+Eigen::MatrixXd bim_apply(const BIMSurface& src, const BIMSurface& dst, const Mobius& m,
+                          Eigen::VectorXi* face_out, Eigen::MatrixXd* bary_out) {
+  const int n = src.mesh.num_vertices();
+  Eigen::MatrixXd P(n, 3);
+  std::vector<int> face(n, -1);
+  if (face_out) face_out->resize(n);
+  if (bary_out) bary_out->resize(n, 3);
+  for (int v : src.bfs_order) {
+    int start = src.bfs_parent[v] >= 0 ? face[src.bfs_parent[v]] : -1;
+    auto loc = dst.locator->locate(sphere_from_plane(m(src.hom[v])), start);
+    face[v] = loc.face;
+    Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
+    for (int k = 0; k < 3; ++k) p += loc.bary(k) * dst.mesh.V.row(dst.mesh.F(loc.face, k));
+    P.row(v) = p;
+    if (face_out) (*face_out)(v) = loc.face;
+    if (bary_out) bary_out->row(v) = loc.bary.transpose();
+  }
+  return P;
+}
+
+Eigen::VectorXd bim_confidence(const BIMSurface& src, const BIMSurface& dst, const Mobius& m) {
+  Eigen::VectorXd c(src.even.size());
+  confidence_at_even(src, dst, m, c.data());
+  return c;
+}
+
+// ---------------------------------------------------------------------------------------
+BIMDirectionResult bim_map(const BIMSurface& src, const BIMSurface& dst, const BIMOptions& opt,
+                           const ProgressCallback& progress) {
+  BIMDirectionResult R;
+  const int ne = int(src.even.size());
+
+  // Sec. 4: candidates.
+  auto t0 = Clock::now();
+  std::vector<BIMCandidate> cand = bim_candidates(src, dst, opt, &R.num_candidates_total);
+  const int K = int(cand.size());
+  R.num_candidates = K;
+  if (K == 0) throw Error("BIM: no candidate maps (fewer than 3 feature points)");
+  R.timings.push_back({"candidates", seconds_since(t0)});
+
+  // Sec. 5: confidence at P_even, K × ne (row per map).
+  t0 = Clock::now();
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> C(K, ne);
+  {
+    int done = 0;
+#pragma omp parallel for schedule(dynamic, 16)
+    for (int i = 0; i < K; ++i) {
+      confidence_at_even(src, dst, cand[i].mobius, C.row(i).data());
+      int d;
+#pragma omp atomic capture
+      d = ++done;
+      if ((d & 255) == 0) report(progress, "bim/confidence", double(d) / K);
+    }
+  }
+  report(progress, "bim/confidence", 1.0);
+  Eigen::VectorXd cand_conf = C.rowwise().mean();
+  R.best_candidate_confidence = cand_conf.maxCoeff();
+  R.timings.push_back({"confidence", seconds_since(t0)});
+
+  // Sec. 6.2: blending matrix over pairs sharing two correspondences, no conflicts.
+  t0 = Clock::now();
+  const long long n2 = (long long)dst.features.size();
+  auto corr_key = [&](int i, int k) { return (long long)cand[i].source[k] * n2 + cand[i].target[k]; };
+  std::vector<std::pair<long long, int>> keyed;  // (pair-of-correspondences key, map)
+  keyed.reserve(size_t(3) * K);
+  const long long nc = (long long)src.features.size() * n2;
+  for (int i = 0; i < K; ++i)
+    for (int a = 0; a < 3; ++a)
+      for (int b = a + 1; b < 3; ++b) {
+        long long ka = corr_key(i, a), kb = corr_key(i, b);
+        if (ka > kb) std::swap(ka, kb);
+        keyed.push_back({ka * nc + kb, i});
+      }
+  std::sort(keyed.begin(), keyed.end());
+  std::vector<std::pair<int, int>> pairs;
+  auto third = [&](int i, long long key) {
+    long long ka = key / nc, kb = key % nc;
+    for (int k = 0; k < 3; ++k) {
+      long long c = corr_key(i, k);
+      if (c != ka && c != kb) return std::make_pair(cand[i].source[k], cand[i].target[k]);
+    }
+    return std::make_pair(-1, -1);
+  };
+  for (size_t s = 0; s < keyed.size();) {
+    size_t e = s;
+    while (e < keyed.size() && keyed[e].first == keyed[s].first) ++e;
+    for (size_t x = s; x < e; ++x)
+      for (size_t y = x + 1; y < e; ++y) {
+        int i = keyed[x].second, j = keyed[y].second;
+        auto ci = third(i, keyed[s].first), cj = third(j, keyed[s].first);
+        bool conflict = (ci.first == cj.first) != (ci.second == cj.second);
+        if (!conflict) pairs.push_back({std::min(i, j), std::max(i, j)});
+      }
+    s = e;
+  }
+  R.num_consistent_pairs = (long long)pairs.size();
+  std::vector<double> pair_val(pairs.size(), 0.0);
+  const double inv_s2 = 1.0 / (opt.sigma * opt.sigma);
+  {
+    long long done = 0;
+    const long long np = (long long)pairs.size();
+#pragma omp parallel for schedule(dynamic, 64)
+    for (long long q = 0; q < np; ++q) {
+      int i = pairs[q].first, j = pairs[q].second;
+      Mobius Mij = cand[j].mobius.inverse() * cand[i].mobius;  // m_j^{-1} ∘ m_i (source plane)
+      Mobius Mji = cand[i].mobius.inverse() * cand[j].mobius;
+      double sum = 0;
+      for (int sidx = 0; sidx < ne; ++sidx) {
+        double w = C(i, sidx) * C(j, sidx);
+        if (w < opt.consistency_skip) continue;
+        int v = src.even[sidx];
+        double sij = 0;
+        int passes = opt.symmetrize_consistency ? 2 : 1;
+        for (int pass = 0; pass < passes; ++pass) {
+          const Mobius& M = pass == 0 ? Mij : Mji;
+          auto loc = src.locator->locate(sphere_from_plane(M(src.hom[v])), src.locator->vertex_face(v));
+          double d = 0;
+          for (int k = 0; k < 3; ++k) d += loc.bary(k) * src.even_dist(src.mesh.F(loc.face, k), sidx);
+          sij += std::exp(-std::max(d, 0.0) * inv_s2);  // Eq. 5
+        }
+        sum += w * sij / passes;
+      }
+      pair_val[q] = sum / ne;  // A_i = area/256 (Sec. 6.2)
+      long long d;
+#pragma omp atomic capture
+      d = ++done;
+      if ((d & 1023) == 0) report(progress, "bim/consistency", double(d) / np);
+    }
+  }
+  report(progress, "bim/consistency", 1.0);
+  Eigen::SparseMatrix<double> S(K, K);
+  {
+    std::vector<Eigen::Triplet<double>> trip;
+    trip.reserve(K + 2 * pairs.size());
+    for (int i = 0; i < K; ++i) trip.emplace_back(i, i, C.row(i).squaredNorm() / ne);
+    for (size_t q = 0; q < pairs.size(); ++q) {
+      if (pair_val[q] == 0) continue;
+      trip.emplace_back(pairs[q].first, pairs[q].second, pair_val[q]);
+      trip.emplace_back(pairs[q].second, pairs[q].first, pair_val[q]);
+    }
+    S.setFromTriplets(trip.begin(), trip.end());
+  }
+  R.timings.push_back({"consistency_matrix", seconds_since(t0)});
+
+  // Top eigenvectors (Spectra; dense for small K).
+  t0 = Clock::now();
+  std::vector<double> evals;
+  std::vector<Eigen::VectorXd> evecs;
+  const int nev = std::max(1, std::min(opt.num_eigenvectors, K - 1));
+  if (K <= 400) {
+    Eigen::MatrixXd Sd = Eigen::MatrixXd(S);
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(Sd);
+    for (int e = 0; e < std::min(nev, K); ++e) {
+      evals.push_back(es.eigenvalues()(K - 1 - e));
+      evecs.push_back(es.eigenvectors().col(K - 1 - e));
+    }
+  } else {
+    Spectra::SparseSymMatProd<double> op(S);
+    int ncv = std::min(K, std::max(2 * nev + 1, 24));
+    Spectra::SymEigsSolver<Spectra::SparseSymMatProd<double>> es(op, nev, ncv);
+    es.init();
+    es.compute(Spectra::SortRule::LargestAlge, 1000, 1e-10);
+    if (es.info() != Spectra::CompInfo::Successful) throw Error("BIM: eigen-solver did not converge");
+    Eigen::VectorXd ev = es.eigenvalues();
+    Eigen::MatrixXd V = es.eigenvectors();
+    for (int e = 0; e < int(ev.size()); ++e) {
+      evals.push_back(ev(e));
+      evecs.push_back(V.col(e));
+    }
+  }
+  R.eigenvalues = evals;
+  // Sec. 6.2: eigenvalues within the fraction of the top one; consistent groups.
+  std::vector<std::vector<int>> groups;
+  std::vector<char> assigned(K, 0);
+  auto consistent = [&](int i, const std::vector<int>& g) {
+    for (int j : g)
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b)
+          if ((cand[i].source[a] == cand[j].source[b]) != (cand[i].target[a] == cand[j].target[b]))
+            return false;
+    return true;
+  };
+  R.num_eigenvectors_used = 0;
+  for (size_t e = 0; e < evecs.size(); ++e) {
+    if (evals[e] < opt.eigenvalue_fraction * evals[0]) break;
+    ++R.num_eigenvectors_used;
+    const Eigen::VectorXd& w = evecs[e];
+    std::vector<int> order(K);
+    std::iota(order.begin(), order.end(), 0);
+    std::stable_sort(order.begin(), order.end(),
+                     [&](int a, int b) { return std::abs(w(a)) > std::abs(w(b)); });
+    double wmax = std::abs(w(order[0]));
+    for (int i : order) {
+      if (std::abs(w(i)) < opt.entry_fraction * wmax) break;
+      if (assigned[i]) continue;
+      assigned[i] = 1;
+      bool placed = false;
+      for (auto& g : groups)
+        if (consistent(i, g)) {
+          g.push_back(i);
+          placed = true;
+          break;
+        }
+      if (!placed) groups.push_back({i});
+    }
+  }
+  if (groups.empty()) {  // degenerate spectrum: the most confident map alone
+    int best = 0;
+    cand_conf.maxCoeff(&best);
+    groups.push_back({best});
+  }
+  // Larger groups first (Fig. 3 orders blocks by size); keep the first max_groups.
+  std::stable_sort(groups.begin(), groups.end(),
+                   [](const std::vector<int>& a, const std::vector<int>& b) { return a.size() > b.size(); });
+  if (opt.max_groups > 0 && int(groups.size()) > opt.max_groups) groups.resize(opt.max_groups);
+  R.timings.push_back({"eigenvectors_groups", seconds_since(t0)});
+
+  // Sec. 7: blended map of each group; keep the one with the best integrated confidence.
+  t0 = Clock::now();
+  const int n = src.mesh.num_vertices();
+  double best_ic = -1;
+  std::vector<ClosestPointResult> best_cp;
+  Eigen::MatrixXd best_X;
+  for (size_t g = 0; g < groups.size(); ++g) {
+    const auto& G = groups[g];
+    const int ng = int(G.size());
+    Eigen::MatrixXd Ceven(ne, ng);
+    for (int a = 0; a < ng; ++a) Ceven.col(a) = C.row(G[a]).transpose();
+    Eigen::MatrixXd Cv = src.interp * Ceven;  // n × ng, b_i(p) = c_i(p) w_i, w binary
+    std::vector<Eigen::MatrixXd> P(ng);
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int a = 0; a < ng; ++a) P[a] = bim_apply(src, dst, cand[G[a]].mobius);
+    Eigen::MatrixXd X = Eigen::MatrixXd::Zero(n, 3);
+    Eigen::VectorXd wsum = Eigen::VectorXd::Zero(n);
+    for (int a = 0; a < ng; ++a) {
+      X += Cv.col(a).asDiagonal() * P[a];
+      wsum += Cv.col(a);
+    }
+    for (int v = 0; v < n; ++v) {
+      if (wsum(v) > 1e-12) {
+        X.row(v) /= wsum(v);
+      } else {
+        Eigen::RowVector3d m = Eigen::RowVector3d::Zero();
+        for (int a = 0; a < ng; ++a) m += P[a].row(v);
+        X.row(v) = m / ng;
+      }
+    }
+    // Closest point on the target to the weighted Euclidean centroid.
+    std::vector<ClosestPointResult> cp = dst.closest->query(X);
+    for (int v = 0; v < n; ++v) {
+      Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
+      for (int k = 0; k < 3; ++k) p += cp[v].bary(k) * dst.mesh.V.row(dst.mesh.F(cp[v].elem, k));
+      X.row(v) = p;
+    }
+    Eigen::VectorXd cf = map_confidence(src.mesh, X);
+    double ic = cf.dot(src.mass);  // ∫ c_f dA on the unit-area source
+    R.group_confidence.push_back(ic);
+    R.group_sizes.push_back(ng);
+    if (ic > best_ic) {
+      best_ic = ic;
+      R.selected_group = int(g);
+      R.confidence = cf;
+      best_cp = std::move(cp);
+      best_X = X;
+    }
+    report(progress, "bim/blend", double(g + 1) / groups.size());
+  }
+  R.integrated_confidence = best_ic;
+  for (int i : groups[R.selected_group]) {
+    BIMMapInfo info;
+    info.index = i;
+    for (int k = 0; k < 3; ++k) {
+      info.source[k] = src.features[cand[i].source[k]];
+      info.target[k] = dst.features[cand[i].target[k]];
+    }
+    info.integrated_confidence = cand_conf(i);
+    R.selected.push_back(info);
+  }
+  R.map.elem.resize(n);
+  R.map.bary.resize(n, 3);
+  for (int v = 0; v < n; ++v) {
+    R.map.elem(v) = best_cp[v].elem;
+    Eigen::Vector3d b = best_cp[v].bary.head<3>().cwiseMax(0.0);
+    R.map.bary.row(v) = (b / b.sum()).transpose();
+  }
+  to_input_faces(dst.mesh.F, dst.F_input, R.map);
+  R.positions = map_positions(R.map, dst.V_input, dst.F_input);
+  R.timings.push_back({"blend", seconds_since(t0)});
+  return R;
+}
+
+// ---------------------------------------------------------------------------------------
+BIMResult blended_intrinsic_maps(const TriMesh& A, const TriMesh& B, const BIMOptions& opt,
+                                 const ProgressCallback& progress) {
+  auto t0 = Clock::now();
+  if (opt.landmarks_A.size() != opt.landmarks_B.size())
+    throw InputError("landmarks: the two lists have different lengths (" +
+                     std::to_string(opt.landmarks_A.size()) + " and " +
+                     std::to_string(opt.landmarks_B.size()) + ")");
+  if (!opt.landmarks_A.empty() && opt.landmarks_A.size() < 3)
+    throw InputError("landmarks: at least 3 correspondences are needed");
+  BIMResult out;
+  BIMSurface sa = bim_prepare(A, opt.name_A, opt, opt.landmarks_A, progress);
+  BIMSurface sb = bim_prepare(B, opt.name_B, opt, opt.landmarks_B, progress);
+  for (auto& t : sa.timings) out.timings.push_back({"A/" + t.first, t.second});
+  for (auto& t : sb.timings) out.timings.push_back({"B/" + t.first, t.second});
+  out.features_A = sa.features;
+  out.features_B = sb.features;
+  out.num_even = int(sa.even.size());
+  out.AB = bim_map(sa, sb, opt, progress);
+  for (auto& t : out.AB.timings) out.timings.push_back({"AB/" + t.first, t.second});
+  if (opt.symmetric) {
+    BIMOptions o2 = opt;
+    std::swap(o2.landmarks_A, o2.landmarks_B);
+    out.BA = bim_map(sb, sa, o2, progress);
+    for (auto& t : out.BA.timings) out.timings.push_back({"BA/" + t.first, t.second});
+  }
+  out.total_seconds = seconds_since(t0);
+  return out;
+}
+
+}  // namespace shapemap

@@ -1,0 +1,436 @@
+// Elastic correspondence, Algorithm 1 (Eq. 4, 6). See elastic.h and docs/methods.md.
+#include "shapemap/surface/elastic.h"
+
+#include "shapemap/error.h"
+#include "shapemap/geometry/closest_point.h"
+#include "shapemap/optim/lbfgs.h"
+#include "shapemap/surface/shell_energy.h"
+
+#include <Eigen/Geometry>
+#include <Eigen/Sparse>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+namespace shapemap {
+
+namespace {
+
+using RowMat3 = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+// Lumped (barycentric) mass, M_ii = sum of incident face areas / 3 (Eq. 3).
+Eigen::VectorXd lumped_areas(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
+  Eigen::VectorXd m = Eigen::VectorXd::Zero(V.rows());
+  for (int f = 0; f < F.rows(); ++f) {
+    const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
+    const double area = 0.5 * (b - a).cross(c - a).norm();
+    for (int j = 0; j < 3; ++j) m(F(f, j)) += area / 3.0;
+  }
+  return m;
+}
+
+double total_area(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
+  double s = 0;
+  for (int f = 0; f < F.rows(); ++f) {
+    const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
+    s += 0.5 * (b - a).cross(c - a).norm();
+  }
+  return s;
+}
+
+// Clamp tiny negative coordinates and renormalize (projection round-off).
+void sanitize(BarycentricMap& map) {
+  for (int i = 0; i < map.size(); ++i) {
+    double s = 0;
+    for (int j = 0; j < 3; ++j) {
+      double& b = map.bary(i, j);
+      if (!(b > 0)) b = 0;
+      s += b;
+    }
+    if (s > 0) map.bary.row(i) /= s;
+    else map.bary.row(i) << 1.0, 0.0, 0.0;
+  }
+}
+
+// out = P * V (rows: sum_j bary(i,j) V(F(elem(i), j)))
+void apply_map(const BarycentricMap& P, const Eigen::MatrixXi& F, const Eigen::MatrixXd& V,
+               RowMat3& out) {
+  out.resize(P.size(), 3);
+#pragma omp parallel for schedule(static) if (P.size() > 4096)
+  for (int i = 0; i < P.size(); ++i) {
+    const int f = P.elem(i);
+    out.row(i) = P.bary(i, 0) * V.row(F(f, 0)) + P.bary(i, 1) * V.row(F(f, 1)) +
+                 P.bary(i, 2) * V.row(F(f, 2));
+  }
+}
+
+// Sparse matrix of a barycentric map (rows: source vertices, cols: target vertices).
+Eigen::SparseMatrix<double, Eigen::RowMajor> map_matrix(const BarycentricMap& P,
+                                                        const Eigen::MatrixXi& F, int cols) {
+  std::vector<Eigen::Triplet<double>> t;
+  t.reserve(3 * P.size());
+  for (int i = 0; i < P.size(); ++i)
+    for (int j = 0; j < 3; ++j) t.emplace_back(i, F(P.elem(i), j), P.bary(i, j));
+  Eigen::SparseMatrix<double, Eigen::RowMajor> M(P.size(), cols);
+  M.setFromTriplets(t.begin(), t.end());
+  return M;
+}
+
+// One side of the alternating scheme: the deformation Y of the source (X, F) toward
+// the target (Xt, Ft), with P its projection and Q the reverse projection.
+struct Side {
+  Eigen::MatrixXd X;            // source vertices (normalized frame), n×3
+  Eigen::MatrixXi F;
+  Eigen::VectorXd mass;         // lumped mass of the source
+  ShellEnergy shell;
+  BarycentricMap P;             // source vertices -> target faces
+  RowMat3 Y;                    // deformation of the source, n×3
+  RowMat3 PXt;                  // P X~ (targets of the mismatch term)
+  ClosestPointBVH<6> bvh6;      // target triangulation in R^6 (bijective)
+  ClosestPointBVH<3> bvh3;      // target triangulation in R^3 (injective)
+  bool built = false;
+};
+
+// P step: rows of B = [sqrt(beta) Y, sqrt(gamma) X] onto the target triangulation with
+// vertex coordinates A = [sqrt(beta) X~, sqrt(gamma) Y~] (Sec. 5.1 "Mapping optimization").
+void projection_step(Side& s, const Side& t, double beta, double gamma, bool bijective) {
+  const int n = int(s.X.rows());
+  std::vector<ClosestPointResult> res;
+  if (bijective) {
+    const double sb = std::sqrt(beta), sg = std::sqrt(gamma);
+    Eigen::MatrixXd A(t.X.rows(), 6), B(n, 6);
+    A.leftCols(3) = sb * t.X;
+    A.rightCols(3) = sg * t.Y;
+    B.leftCols(3) = sb * s.Y;
+    B.rightCols(3) = sg * s.X;
+    if (!s.built) {
+      s.bvh6.build(A, t.F);
+      s.built = true;
+    } else {
+      s.bvh6.refit(A);
+    }
+    res = s.bvh6.query(B);
+  } else {
+    if (!s.built) {
+      s.bvh3.build(t.X, t.F);  // beta scales both sides alike: project Y onto X~ in R^3
+      s.built = true;
+    }
+    res = s.bvh3.query(Eigen::MatrixXd(s.Y));
+  }
+  for (int i = 0; i < n; ++i) {
+    if (res[i].elem < 0) continue;  // keep the previous row (cannot happen on valid input)
+    s.P.elem(i) = res[i].elem;
+    s.P.bary.row(i) = res[i].bary.head<3>().transpose();
+  }
+  sanitize(s.P);
+  apply_map(s.P, t.F, t.X, s.PXt);
+}
+
+struct EnergyParts {
+  double deformation = 0, mismatch = 0, reversibility = 0;
+};
+
+// Terms of E (Eq. 6) that involve the side's Y:
+//   W_def(X, Y) + beta |P X~ - Y|_X^2 + gamma |Q Y - X~|_X~^2
+// with Q = the target side's projection (target vertices -> source faces).
+class DeformationObjective {
+ public:
+  DeformationObjective(const Side& s, const Side& t, double beta, double gamma, bool bijective)
+      : s_(s), t_(t), beta_(beta), gamma_(gamma), bij_(bijective) {
+    if (bij_) {
+      Q_ = map_matrix(t.P, s.F, int(s.X.rows()));
+      Qt_ = Q_.transpose();
+      QY_.resize(t.X.rows(), 3);
+      R_.resize(t.X.rows(), 3);
+    }
+  }
+  double operator()(const Eigen::VectorXd& x, Eigen::VectorXd& g, EnergyParts* parts = nullptr) {
+    const int n = int(s_.X.rows());
+    Eigen::Map<const RowMat3> Y(x.data(), n, 3);
+    Eigen::Map<RowMat3> G(g.data(), n, 3);
+    const double Wd = s_.shell.evaluate(x.data(), g.data());
+    // beta |P X~ - Y|_X^2 (Eq. 3 norm)
+    double mis = 0;
+    for (int i = 0; i < n; ++i) {
+      const Eigen::RowVector3d r = Y.row(i) - s_.PXt.row(i);
+      mis += s_.mass(i) * r.squaredNorm();
+      G.row(i) += 2 * beta_ * s_.mass(i) * r;
+    }
+    mis *= beta_;
+    double rev = 0;
+    if (bij_) {
+      // gamma |Q Y - X~|_X~^2, gradient 2 gamma Q^T M~ (Q Y - X~)
+      QY_.noalias() = Q_ * Y;
+      for (int j = 0; j < R_.rows(); ++j) {
+        const Eigen::RowVector3d r = QY_.row(j) - t_.X.row(j);
+        rev += t_.mass(j) * r.squaredNorm();
+        R_.row(j) = (2 * gamma_ * t_.mass(j)) * r;
+      }
+      rev *= gamma_;
+      G.noalias() += Qt_ * R_;
+    }
+    if (parts) *parts = {Wd, mis, rev};
+    return Wd + mis + rev;
+  }
+
+ private:
+  const Side& s_;
+  const Side& t_;
+  double beta_, gamma_;
+  bool bij_;
+  Eigen::SparseMatrix<double, Eigen::RowMajor> Q_, Qt_;
+  RowMat3 QY_, R_;
+};
+
+int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bijective,
+                     const ElasticOptions& opt, EnergyParts& parts) {
+  const int n = int(s.X.rows());
+  DeformationObjective obj(s, t, beta, gamma, bijective);
+  Eigen::VectorXd x = Eigen::Map<const Eigen::VectorXd>(s.Y.data(), 3 * n);
+  const Eigen::VectorXd x0 = x;
+  LbfgsOptions lo;
+  lo.max_iterations = opt.inner_max_iterations;
+  lo.memory = opt.lbfgs_memory;
+  lo.grad_tol = opt.inner_tol;
+  lo.f_decrease_tol = opt.inner_f_tol;
+  lo.wolfe = false;  // Armijo backtracking (Sec. 5.1)
+  Objective f = [&obj](const Eigen::VectorXd& y, Eigen::VectorXd& g) { return obj(y, g); };
+  LbfgsResult r = lbfgs_minimize(f, x, lo);
+  Eigen::VectorXd g(3 * n);
+  double E = obj(x, g, &parts);
+  if (!x.allFinite() || !std::isfinite(E)) {  // never hand on NaN: keep the previous Y
+    x = x0;
+    obj(x, g, &parts);
+  }
+  s.Y = Eigen::Map<const RowMat3>(x.data(), n, 3);
+  return r.iterations;
+}
+
+// Deterministic tiny perturbation of vertices of collapsed triangles of Y: at an exactly
+// collapsed triangle the membrane gradient vanishes (det G is quadratic in its normal),
+// so a minimizer would never open it. Magnitude 1e-6 of the mean reference edge length.
+int unstick_collapsed(Side& s) {
+  const int m = int(s.F.rows());
+  double h = 0;
+  for (int f = 0; f < m; ++f) h += (s.X.row(s.F(f, 0)) - s.X.row(s.F(f, 1))).norm();
+  h = 1e-6 * h / std::max(1, m);
+  int count = 0;
+  for (int f = 0; f < m; ++f) {
+    const Eigen::Vector3d a = s.Y.row(s.F(f, 0)), b = s.Y.row(s.F(f, 1)), c = s.Y.row(s.F(f, 2));
+    const Eigen::Vector3d xa = s.X.row(s.F(f, 0)), xb = s.X.row(s.F(f, 1)), xc = s.X.row(s.F(f, 2));
+    const double nref = (xb - xa).cross(xc - xa).norm();
+    if ((b - a).cross(c - a).norm() > 1e-8 * nref) continue;
+    ++count;
+    for (int j = 0; j < 3; ++j) {
+      const unsigned v = unsigned(s.F(f, j));
+      for (int k = 0; k < 3; ++k) {
+        // splitmix-style hash -> [-1, 1]
+        unsigned long long z = (unsigned long long)v * 3 + k + 0x9E3779B97F4A7C15ull;
+        z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+        z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+        z ^= z >> 31;
+        s.Y(v, k) += h * (double(z >> 11) / double(1ull << 53) * 2.0 - 1.0);
+      }
+    }
+  }
+  return count;
+}
+
+int count_degenerate(const Side& s, double tol) {
+  int c = 0;
+  for (int f = 0; f < s.F.rows(); ++f) {
+    const Eigen::Vector3d a = s.Y.row(s.F(f, 0)), b = s.Y.row(s.F(f, 1)), cc = s.Y.row(s.F(f, 2));
+    const Eigen::Vector3d xa = s.X.row(s.F(f, 0)), xb = s.X.row(s.F(f, 1)), xc = s.X.row(s.F(f, 2));
+    if (!((b - a).cross(cc - a).norm() > tol * (xb - xa).cross(xc - xa).norm())) ++c;
+  }
+  return c;
+}
+
+}  // namespace
+
+ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
+                                     const BarycentricMap& init_AB,
+                                     const BarycentricMap& init_BA, const ElasticOptions& opt) {
+  const auto t_start = Clock::now();
+  const bool bij = opt.model == ElasticModel::Bijective;
+  if (A.V.rows() < 3 || A.F.rows() < 1) throw InputError("A: empty mesh");
+  if (B.V.rows() < 3 || B.F.rows() < 1) throw InputError("B: empty mesh");
+  if (!A.V.allFinite()) throw InputError("A: non-finite vertex coordinates");
+  if (!B.V.allFinite()) throw InputError("B: non-finite vertex coordinates");
+  validate_map(init_AB, A.num_vertices(), B.num_faces(), 3, "initial map A->B");
+  if (bij) validate_map(init_BA, B.num_vertices(), A.num_faces(), 3, "initial map B->A");
+  if (opt.max_outer_iterations < 0 || opt.inner_max_iterations < 0)
+    throw InputError("elastic: negative iteration count");
+
+  // Sec. 5.2 global scale (or Sec. 6.2 partial matching: no scaling, rescaled weights).
+  Normalization na, nb;
+  double alphaA = opt.alpha, alphaB = opt.alpha, wscale = 1.0;
+  if (opt.normalize_area) {
+    na = unit_area_normalization(A);
+    nb = unit_area_normalization(B);
+  } else {
+    const double s = total_area(A.V, A.F), st = total_area(B.V, B.F);
+    if (!(s > 0) || !(st > 0)) throw InputError("elastic: zero-area mesh");
+    alphaA = opt.alpha / s;
+    alphaB = opt.alpha / st;
+    wscale = 1.0 / (s * st);
+  }
+  Side a, b;
+  a.X = na.apply(A.V);
+  a.F = A.F;
+  b.X = nb.apply(B.V);
+  b.F = B.F;
+  a.mass = lumped_areas(a.X, a.F);
+  b.mass = lumped_areas(b.X, b.F);
+  ShellEnergyOptions so;
+  so.eta = opt.eta;
+  so.lambda = opt.lambda;
+  so.mu = opt.mu;
+  so.log_eps = opt.log_eps;
+  so.degenerate_tol = opt.degenerate_tol;
+  so.alpha = alphaA;
+  a.shell = ShellEnergy(a.X, a.F, so);
+  so.alpha = alphaB;
+  if (bij) b.shell = ShellEnergy(b.X, b.F, so);
+  a.P = init_AB;
+  sanitize(a.P);
+  // Algorithm 1: Y <- P X~, Y~ <- Q X
+  apply_map(a.P, b.F, b.X, a.PXt);
+  a.Y = a.PXt;
+  if (bij) {
+    b.P = init_BA;
+    sanitize(b.P);
+    apply_map(b.P, a.F, a.X, b.PXt);
+    b.Y = b.PXt;
+  } else {
+    b.Y = b.X;  // unused
+  }
+
+  ElasticResult res;
+  res.degenerate_faces_initial =
+      count_degenerate(a, opt.degenerate_tol) + (bij ? count_degenerate(b, opt.degenerate_tol) : 0);
+  unstick_collapsed(a);
+  if (bij) unstick_collapsed(b);
+  res.time_setup = seconds_since(t_start);
+
+  const double gamma = opt.gamma * wscale;
+  double E_prev = 0;
+  const int K = opt.max_outer_iterations;
+  for (int k = 0; k < K; ++k) {
+    const int ramp = std::max(1, opt.beta_ramp_iterations);
+    const double frac = std::min(1.0, double(k) / double(ramp));
+    const double beta = (opt.beta_start + (opt.beta_end - opt.beta_start) * frac) * wscale;
+    ElasticIterate it;
+    it.beta = beta;
+    EnergyParts pa, pb;
+    auto t0 = Clock::now();
+    projection_step(a, b, beta, gamma, bij);  // P step
+    it.time_projection += seconds_since(t0);
+    t0 = Clock::now();
+    it.inner_iterations += deformation_step(a, b, beta, gamma, bij, opt, pa);  // Y step
+    it.time_deformation += seconds_since(t0);
+    if (bij) {
+      t0 = Clock::now();
+      projection_step(b, a, beta, gamma, bij);  // Q step
+      it.time_projection += seconds_since(t0);
+      t0 = Clock::now();
+      it.inner_iterations += deformation_step(b, a, beta, gamma, bij, opt, pb);  // Y~ step
+      it.time_deformation += seconds_since(t0);
+      it.deformation = pa.deformation + pb.deformation;
+      it.mismatch = pa.mismatch + pb.mismatch;
+      // Q changed after side a's step: recompute gamma |Q Y - X~| with the final Q.
+      {
+        RowMat3 QY;
+        apply_map(b.P, a.F, Eigen::MatrixXd(a.Y), QY);
+        double r = 0;
+        for (int j = 0; j < QY.rows(); ++j) r += b.mass(j) * (QY.row(j) - b.X.row(j)).squaredNorm();
+        it.reversibility = gamma * r + pb.reversibility;
+      }
+    } else {
+      it.deformation = pa.deformation;
+      it.mismatch = pa.mismatch;
+    }
+    it.energy = it.deformation + it.mismatch + it.reversibility;
+    res.time_projection += it.time_projection;
+    res.time_deformation += it.time_deformation;
+    res.history.push_back(it);
+    res.outer_iterations = k + 1;
+    report(opt.progress, "elastic", double(k + 1) / K);
+    if (k > 0 && k >= opt.beta_ramp_iterations && opt.energy_tol > 0 &&
+        std::abs(it.energy - E_prev) < opt.energy_tol * std::abs(it.energy)) {
+      res.converged = true;
+      break;
+    }
+    E_prev = it.energy;
+  }
+  if (K == 0) {  // no iterations: the initial maps, projected once
+    projection_step(a, b, opt.beta_start * wscale, gamma, bij);
+    if (bij) projection_step(b, a, opt.beta_start * wscale, gamma, bij);
+  }
+  res.degenerate_faces_final =
+      count_degenerate(a, opt.degenerate_tol) + (bij ? count_degenerate(b, opt.degenerate_tol) : 0);
+  res.map_AB = a.P;
+  res.Y = nb.undo(Eigen::MatrixXd(a.Y));
+  if (bij) {
+    res.map_BA = b.P;
+    res.Ytilde = na.undo(Eigen::MatrixXd(b.Y));
+  }
+  res.time_total = seconds_since(t_start);
+  return res;
+}
+
+double elastic_energy(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F,
+                      const Eigen::MatrixXd& Xt, const Eigen::MatrixXi& Ft,
+                      const BarycentricMap& P, const BarycentricMap& Q,
+                      const Eigen::MatrixXd& Y, const Eigen::MatrixXd& Yt, double beta,
+                      double gamma, const ShellEnergyOptions& shell, Eigen::MatrixXd* gY,
+                      Eigen::MatrixXd* gYt, ElasticEnergyTerms* terms) {
+  const bool bij = Q.size() > 0;
+  validate_map(P, int(X.rows()), int(Ft.rows()), 3, "elastic_energy: P");
+  if (bij) validate_map(Q, int(Xt.rows()), int(F.rows()), 3, "elastic_energy: Q");
+  if (Y.rows() != X.rows() || Y.cols() != 3) throw InputError("elastic_energy: Y must be n×3");
+  if (bij && (Yt.rows() != Xt.rows() || Yt.cols() != 3))
+    throw InputError("elastic_energy: Y~ must be n~×3");
+  Side a, b;
+  a.X = X;
+  a.F = F;
+  a.mass = lumped_areas(X, F);
+  a.shell = ShellEnergy(X, F, shell);
+  a.P = P;
+  a.Y = Y;
+  b.X = Xt;
+  b.F = Ft;
+  b.mass = lumped_areas(Xt, Ft);
+  apply_map(a.P, b.F, b.X, a.PXt);
+  if (bij) {
+    b.shell = ShellEnergy(Xt, Ft, shell);
+    b.P = Q;
+    b.Y = Yt;
+    apply_map(b.P, a.F, a.X, b.PXt);
+  }
+  EnergyParts pa, pb;
+  Eigen::VectorXd x = Eigen::Map<const Eigen::VectorXd>(a.Y.data(), a.Y.size()), g(x.size());
+  DeformationObjective oa(a, b, beta, gamma, bij);
+  double E = oa(x, g, &pa);
+  if (gY) *gY = Eigen::Map<const RowMat3>(g.data(), a.Y.rows(), 3);
+  if (bij) {
+    Eigen::VectorXd xt = Eigen::Map<const Eigen::VectorXd>(b.Y.data(), b.Y.size()), gt(xt.size());
+    DeformationObjective ob(b, a, beta, gamma, bij);
+    E += ob(xt, gt, &pb);
+    if (gYt) *gYt = Eigen::Map<const RowMat3>(gt.data(), b.Y.rows(), 3);
+  }
+  if (terms) {
+    terms->total = E;
+    terms->deformation = pa.deformation + pb.deformation;
+    terms->mismatch = pa.mismatch + pb.mismatch;
+    terms->reversibility = pa.reversibility + pb.reversibility;
+  }
+  return E;
+}
+
+}  // namespace shapemap

@@ -1,0 +1,281 @@
+// Thin-shell energy of elastic correspondence (Eq. 2, 7, 9). See shell_energy.h.
+#include "shapemap/surface/shell_energy.h"
+#include "shapemap/error.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <tuple>
+
+namespace shapemap {
+
+namespace {
+using V3 = Eigen::Vector3d;
+
+// Below this many elements a loop runs serially (a parallel region costs more than it saves).
+constexpr int kParallelMin = 4096;
+
+inline V3 row3(const double* y, int i) { return V3(y[3 * i], y[3 * i + 1], y[3 * i + 2]); }
+}  // namespace
+
+double membrane_density(double t, double d, double lambda, double mu, double eps, double* dW_dt,
+                        double* dW_dd) {
+  const double c = mu / 2 + lambda / 4;
+  double mlog, dmlog;  // -log d with its C^1 linear extension below eps (Sec. 4.1)
+  if (d >= eps) {
+    mlog = -std::log(d);
+    dmlog = -1.0 / d;
+  } else {
+    mlog = -std::log(eps) - (d - eps) / eps;
+    dmlog = -1.0 / eps;
+  }
+  if (dW_dt) *dW_dt = mu / 2;
+  if (dW_dd) *dW_dd = lambda / 4 + c * dmlog;
+  return mu / 2 * t + lambda / 4 * d + c * mlog - mu - lambda / 4;
+}
+
+ShellEnergy::ShellEnergy(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F,
+                         const ShellEnergyOptions& opt)
+    : opt_(opt), n_(int(X.rows())), F_(F) {
+  if (X.cols() != 3 || F.cols() != 3) throw InputError("shell energy: X must be n×3 and F m×3");
+  const int m = int(F.rows());
+  if (m > 0 && (F.minCoeff() < 0 || F.maxCoeff() >= n_))
+    throw InputError("shell energy: face index out of range");
+  ginv_.setZero(m, 3);
+  area_.setZero(m);
+  detg_.setZero(m);
+  nref_.setZero(m);
+  Eigen::MatrixXd nunit = Eigen::MatrixXd::Zero(m, 3);
+  for (int f = 0; f < m; ++f) {
+    const V3 x0 = X.row(F(f, 0)), x1 = X.row(F(f, 1)), x2 = X.row(F(f, 2));
+    const V3 e1 = x1 - x0, e2 = x2 - x0;
+    const V3 N = e1.cross(e2);
+    const double g00 = e1.dot(e1), g01 = e1.dot(e2), g11 = e2.dot(e2);
+    const double det = N.squaredNorm();  // = g00 g11 - g01^2, computed stably
+    nref_(f) = std::sqrt(det);
+    area_(f) = 0.5 * nref_(f);
+    detg_(f) = det;
+    // A degenerate reference triangle carries no membrane term (a^ = 0) and no bending.
+    if (det > 1e-300 && det > 1e-24 * (g00 * g11)) {
+      ginv_(f, 0) = g11 / det;
+      ginv_(f, 1) = -g01 / det;
+      ginv_(f, 2) = g00 / det;
+      nunit.row(f) = (N / nref_(f)).transpose();
+    } else {
+      area_(f) = 0;
+      detg_(f) = 0;
+      nref_(f) = 0;
+    }
+  }
+  // Edges: half-edges (a<b, face, corner) sorted; exactly two faces -> interior edge.
+  std::vector<std::tuple<int, int, int, int>> he;
+  he.reserve(3 * m);
+  for (int f = 0; f < m; ++f)
+    for (int j = 0; j < 3; ++j) {
+      int a = F(f, (j + 1) % 3), b = F(f, (j + 2) % 3);
+      if (a > b) std::swap(a, b);
+      he.emplace_back(a, b, f, j);
+    }
+  std::sort(he.begin(), he.end());
+  face_edge_.setConstant(m, 3, -1);
+  face_side_.setZero(m, 3);
+  std::vector<std::array<int, 4>> edges;
+  std::vector<double> cosr, w;
+  for (size_t i = 0; i < he.size();) {
+    size_t j = i;
+    while (j < he.size() && std::get<0>(he[j]) == std::get<0>(he[i]) &&
+           std::get<1>(he[j]) == std::get<1>(he[i]))
+      ++j;
+    if (j - i == 2) {
+      const int f0 = std::get<2>(he[i]), c0 = std::get<3>(he[i]);
+      const int f1 = std::get<2>(he[i + 1]), c1 = std::get<3>(he[i + 1]);
+      const int a = std::get<0>(he[i]), b = std::get<1>(he[i]);
+      if (nref_(f0) > 0 && nref_(f1) > 0 && f0 != f1) {
+        const int e = int(edges.size());
+        edges.push_back({f0, f1, a, b});
+        const double l2 = (X.row(a) - X.row(b)).squaredNorm();
+        const double d = (area_(f0) + area_(f1)) / 3.0;
+        cosr.push_back(nunit.row(f0).dot(nunit.row(f1)));
+        w.push_back(l2 / d);
+        face_edge_(f0, c0) = e;
+        face_side_(f0, c0) = 0;
+        face_edge_(f1, c1) = e;
+        face_side_(f1, c1) = 1;
+      }
+    }
+    i = j;
+  }
+  const int k = int(edges.size());
+  E_.resize(k, 4);
+  cos_ref_.resize(k);
+  weight_.resize(k);
+  for (int e = 0; e < k; ++e) {
+    for (int c = 0; c < 4; ++c) E_(e, c) = edges[e][c];
+    cos_ref_(e) = cosr[e];
+    weight_(e) = w[e];
+  }
+  // vertex -> (face, corner), CSR in increasing face order (fixed gather order).
+  vf_start_.assign(n_ + 1, 0);
+  for (int f = 0; f < m; ++f)
+    for (int j = 0; j < 3; ++j) vf_start_[F(f, j) + 1]++;
+  for (int i = 0; i < n_; ++i) vf_start_[i + 1] += vf_start_[i];
+  vf_face_.resize(3 * m);
+  vf_corner_.resize(3 * m);
+  std::vector<int> fill(vf_start_.begin(), vf_start_.end() - 1);
+  for (int f = 0; f < m; ++f)
+    for (int j = 0; j < 3; ++j) {
+      const int p = fill[F(f, j)]++;
+      vf_face_[p] = f;
+      vf_corner_[p] = j;
+    }
+  fN_.resize(m, 3);
+  fNlen_.resize(m);
+  fdeg_.resize(m);
+  fgrad_.resize(m, 9);
+  fenergy_.resize(m);
+  eenergy_.resize(k);
+  egN_.resize(k, 6);
+  eadm_.resize(k);
+}
+
+double ShellEnergy::evaluate(const double* y, double* grad, ShellEnergyTerms* terms) const {
+  const int m = int(F_.rows()), k = int(E_.rows());
+  const double alpha = opt_.alpha, eta = opt_.eta, lam = opt_.lambda, mu = opt_.mu,
+               eps = opt_.log_eps, tol = opt_.degenerate_tol;
+  const bool want_grad = grad != nullptr;
+  const bool do_bend = eta != 0.0 && k > 0;
+
+  // 1. Faces: normals, degeneracy, membrane energy and gradient (Eq. 7).
+#pragma omp parallel for schedule(static) if (m > kParallelMin)
+  for (int f = 0; f < m; ++f) {
+    const int i0 = F_(f, 0), i1 = F_(f, 1), i2 = F_(f, 2);
+    const V3 x0 = row3(y, i0), x1 = row3(y, i1), x2 = row3(y, i2);
+    const V3 e1 = x1 - x0, e2 = x2 - x0;
+    const V3 N = e1.cross(e2);
+    const double Nlen = N.norm();
+    fN_.row(f) = N.transpose();
+    fNlen_(f) = Nlen;
+    fdeg_[f] = !(Nlen > tol * nref_(f)) || nref_(f) == 0;
+    const double a = area_(f);
+    if (a == 0) {
+      fenergy_(f) = 0;
+      if (want_grad) fgrad_.row(f).setZero();
+      continue;
+    }
+    const double h00 = ginv_(f, 0), h01 = ginv_(f, 1), h11 = ginv_(f, 2);
+    const double g00 = e1.dot(e1), g01 = e1.dot(e2), g11 = e2.dot(e2);
+    const double t = h00 * g00 + 2 * h01 * g01 + h11 * g11;  // tr(g^-1 g)
+    const double d = N.squaredNorm() / detg_(f);              // det(g^-1 g)
+    double Wt, Wd;
+    fenergy_(f) = a * membrane_density(t, d, lam, mu, eps, &Wt, &Wd);
+    if (want_grad) {
+      // d t/d e1 = 2(h00 e1 + h01 e2), d t/d e2 = 2(h01 e1 + h11 e2)
+      // d d/d e1 = 2 (e2 x N)/det g^, d d/d e2 = 2 (N x e1)/det g^
+      const double s = 2 * a * alpha;
+      const V3 g1 = s * (Wt * (h00 * e1 + h01 * e2) + Wd * e2.cross(N) / detg_(f));
+      const V3 g2 = s * (Wt * (h01 * e1 + h11 * e2) + Wd * N.cross(e1) / detg_(f));
+      fgrad_.block<1, 3>(f, 0) = (-g1 - g2).transpose();
+      fgrad_.block<1, 3>(f, 3) = g1.transpose();
+      fgrad_.block<1, 3>(f, 6) = g2.transpose();
+    }
+  }
+
+  // 2. Edges: bending energy (Eq. 9) on admissible edges, dE/dN per side.
+  if (do_bend) {
+#pragma omp parallel for schedule(static) if (k > kParallelMin)
+    for (int e = 0; e < k; ++e) {
+      const int f0 = E_(e, 0), f1 = E_(e, 1);
+      if (fdeg_[f0] || fdeg_[f1]) {
+        eadm_[e] = 0;
+        eenergy_(e) = 0;
+        continue;
+      }
+      eadm_[e] = 1;
+      const double l0 = fNlen_(f0), l1 = fNlen_(f1);
+      const V3 n0 = fN_.row(f0).transpose() / l0, n1 = fN_.row(f1).transpose() / l1;
+      const double c = n0.dot(n1);
+      const double delta = cos_ref_(e) - c;
+      eenergy_(e) = weight_(e) * delta * delta;
+      if (want_grad) {
+        const double dEdc = -2 * eta * weight_(e) * delta;
+        egN_.block<1, 3>(e, 0) = (dEdc * (n1 - c * n0) / l0).transpose();
+        egN_.block<1, 3>(e, 3) = (dEdc * (n0 - c * n1) / l1).transpose();
+      }
+    }
+    // 3. Faces: gather dE/dN over the face's edges, push to its vertices.
+    if (want_grad) {
+#pragma omp parallel for schedule(static) if (m > kParallelMin)
+      for (int f = 0; f < m; ++f) {
+        V3 G = V3::Zero();
+        bool any = false;
+        for (int j = 0; j < 3; ++j) {
+          const int e = face_edge_(f, j);
+          if (e < 0 || !eadm_[e]) continue;
+          G += egN_.block<1, 3>(e, 3 * face_side_(f, j)).transpose();
+          any = true;
+        }
+        if (!any) continue;
+        const V3 x0 = row3(y, F_(f, 0)), x1 = row3(y, F_(f, 1)), x2 = row3(y, F_(f, 2));
+        const V3 e1 = x1 - x0, e2 = x2 - x0;
+        // N = e1 x e2: G.dN = de1.(e2 x G) + de2.(G x e1)
+        const V3 g1 = e2.cross(G), g2 = G.cross(e1);
+        fgrad_.block<1, 3>(f, 0) -= (g1 + g2).transpose();
+        fgrad_.block<1, 3>(f, 3) += g1.transpose();
+        fgrad_.block<1, 3>(f, 6) += g2.transpose();
+      }
+    }
+  }
+
+  // 4. Vertices: gather per-face gradients in a fixed order.
+  if (want_grad) {
+#pragma omp parallel for schedule(static) if (n_ > kParallelMin)
+    for (int i = 0; i < n_; ++i) {
+      double gx = 0, gy = 0, gz = 0;
+      for (int p = vf_start_[i]; p < vf_start_[i + 1]; ++p) {
+        const int f = vf_face_[p], c = vf_corner_[p];
+        gx += fgrad_(f, 3 * c);
+        gy += fgrad_(f, 3 * c + 1);
+        gz += fgrad_(f, 3 * c + 2);
+      }
+      grad[3 * i] = gx;
+      grad[3 * i + 1] = gy;
+      grad[3 * i + 2] = gz;
+    }
+  }
+
+  // 5. Serial sums (deterministic).
+  double mem = 0, bnd = 0;
+  int adm = 0, deg = 0;
+  for (int f = 0; f < m; ++f) {
+    mem += fenergy_(f);
+    deg += fdeg_[f] ? 1 : 0;
+  }
+  if (do_bend)
+    for (int e = 0; e < k; ++e) {
+      bnd += eenergy_(e);
+      adm += eadm_[e];
+    }
+  const double total = alpha * mem + eta * bnd;
+  if (terms) {
+    terms->membrane = mem;
+    terms->bending = bnd;
+    terms->total = total;
+    terms->admissible_edges = adm;
+    terms->degenerate_faces = deg;
+  }
+  return total;
+}
+
+double ShellEnergy::evaluate(const Eigen::MatrixXd& Y, Eigen::MatrixXd* G,
+                             ShellEnergyTerms* terms) const {
+  if (Y.rows() != n_ || Y.cols() != 3) throw InputError("shell energy: Y must be n×3");
+  Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> Yr = Y;
+  if (!G) return evaluate(Yr.data(), nullptr, terms);
+  Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> Gr(n_, 3);
+  const double E = evaluate(Yr.data(), Gr.data(), terms);
+  *G = Gr;
+  return E;
+}
+
+}  // namespace shapemap

@@ -1,0 +1,387 @@
+// Isovolumetric energy minimization for ball-shaped volume-preserving parameterizations
+// (isovolumetric-ball-parameterization.txt, Algorithm 1). See the header and
+// docs/methods.md for the deviations (pole handling, phi preconditioner block).
+#include "shapemap/volume/ball_param.h"
+#include "shapemap/checks.h"
+#include "shapemap/error.h"
+#include "shapemap/geometry/sparse_cholesky.h"
+#include "shapemap/optim/line_search.h"
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <chrono>
+#include <ctime>
+#include <cmath>
+#include <limits>
+#include <numeric>
+
+namespace shapemap {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+}  // namespace
+
+// ------------------------------------------------------------ SphericalBallEnergy
+SphericalBallEnergy::SphericalBallEnergy(const IsovolumetricEnergy& energy,
+                                         const Eigen::VectorXi& interior,
+                                         const Eigen::VectorXi& boundary)
+    : E_(energy), interior_(interior), boundary_(boundary) {
+  nI_ = int(interior.size());
+  nB_ = int(boundary.size());
+  if (nI_ + nB_ != energy.num_vertices())
+    throw InputError("SphericalBallEnergy: interior + boundary must cover all vertices");
+  f_.setZero(energy.num_vertices(), 3);
+}
+
+void SphericalBallEnergy::to_map(const Eigen::VectorXd& x, Eigen::MatrixXd& f) const {
+  f.resize(E_.num_vertices(), 3);
+  for (int i = 0; i < nI_; ++i)
+    for (int d = 0; d < 3; ++d) f(interior_(i), d) = x(d * nI_ + i);
+  const Eigen::Matrix3d Qt = Q_.transpose();
+  for (int b = 0; b < nB_; ++b) {
+    const double th = x(3 * nI_ + b), ph = x(3 * nI_ + nB_ + b);
+    const Eigen::Vector3d s(std::sin(th) * std::cos(ph), std::sin(th) * std::sin(ph), std::cos(th));
+    f.row(boundary_(b)) = (Qt * s).transpose();  // Eq. 4 in the frame Q
+  }
+}
+
+Eigen::VectorXd SphericalBallEnergy::from_map(const Eigen::MatrixXd& f) const {
+  Eigen::VectorXd x(num_variables());
+  for (int i = 0; i < nI_; ++i)
+    for (int d = 0; d < 3; ++d) x(d * nI_ + i) = f(interior_(i), d);
+  for (int b = 0; b < nB_; ++b) {
+    Eigen::Vector3d y = Q_ * f.row(boundary_(b)).transpose();
+    y.normalize();
+    x(3 * nI_ + b) = std::acos(std::clamp(y.z(), -1.0, 1.0));  // Eq. 5
+    x(3 * nI_ + nB_ + b) = std::atan2(y.y(), y.x());
+  }
+  return x;
+}
+
+double SphericalBallEnergy::energy(const Eigen::VectorXd& x) const {
+  to_map(x, f_);
+  return E_.energy(f_);
+}
+
+int SphericalBallEnergy::inverted_tets(const Eigen::VectorXd& x) const {
+  to_map(x, f_);
+  Eigen::VectorXd vol;
+  E_.image_volumes(f_, vol);
+  return int((vol.array() <= 0).count());
+}
+
+double SphericalBallEnergy::energy_and_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& g) const {
+  to_map(x, f_);
+  const double e = E_.energy_and_gradient(f_, G_);
+  g.resize(num_variables());
+  for (int i = 0; i < nI_; ++i)
+    for (int d = 0; d < 3; ++d) g(d * nI_ + i) = G_(interior_(i), d);  // Eq. 10a
+  for (int b = 0; b < nB_; ++b) {
+    const double th = x(3 * nI_ + b), ph = x(3 * nI_ + nB_ + b);
+    const double st = std::sin(th), ct = std::cos(th), sp = std::sin(ph), cp = std::cos(ph);
+    const Eigen::Vector3d Gb = Q_ * G_.row(boundary_(b)).transpose();
+    g(3 * nI_ + b) = ct * cp * Gb.x() + ct * sp * Gb.y() - st * Gb.z();  // Eq. 10b
+    g(3 * nI_ + nB_ + b) = -st * sp * Gb.x() + st * cp * Gb.y();        // Eq. 10c
+  }
+  return e;
+}
+
+// ------------------------------------------------------------ pole-avoiding frame
+Eigen::Matrix3d pole_avoiding_frame(const Eigen::MatrixXd& Y, const Eigen::MatrixXi& F) {
+  const Eigen::Index k = Y.rows();
+  auto score = [&](const Eigen::Vector3d& a) {
+    double s = 1;
+    for (Eigen::Index b = 0; b < k; ++b) s = std::min(s, 1 - std::abs(a.dot(Y.row(b).transpose())));
+    return s;
+  };
+  // Candidates: normalized face centroids ranked by their local empty-cap size.
+  std::vector<std::pair<double, int>> cand;
+  cand.reserve(F.rows());
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    Eigen::Vector3d c = (Y.row(F(f, 0)) + Y.row(F(f, 1)) + Y.row(F(f, 2))).transpose();
+    if (!(c.norm() > 0)) continue;
+    c.normalize();
+    double r = 1;
+    for (int j = 0; j < 3; ++j) r = std::min(r, 1 - std::abs(c.dot(Y.row(F(f, j)).transpose())));
+    cand.push_back({-r, int(f)});
+  }
+  const size_t K = std::min<size_t>(64, cand.size());
+  std::partial_sort(cand.begin(), cand.begin() + K, cand.end());
+  Eigen::Vector3d best = Eigen::Vector3d::UnitZ();
+  double best_s = score(best);
+  for (size_t i = 0; i < K; ++i) {
+    const int f = cand[i].second;
+    Eigen::Vector3d c = (Y.row(F(f, 0)) + Y.row(F(f, 1)) + Y.row(F(f, 2))).transpose();
+    c.normalize();
+    const double s = score(c);
+    if (s > best_s) {
+      best_s = s;
+      best = c;
+    }
+  }
+  // Rows e1, e2, e3 = best: Q best = e_z, det Q = +1.
+  Eigen::Vector3d e3 = best;
+  Eigen::Vector3d t = std::abs(e3.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+  Eigen::Vector3d e1 = (t - t.dot(e3) * e3).normalized();
+  Eigen::Vector3d e2 = e3.cross(e1);
+  Eigen::Matrix3d Q;
+  Q.row(0) = e1.transpose();
+  Q.row(1) = e2.transpose();
+  Q.row(2) = e3.transpose();
+  return Q;
+}
+
+// ------------------------------------------------------------ Algorithm 1
+BallParamResult ball_parameterization(const TetMesh& mesh, const BallParamOptions& opt,
+                                      const ProgressCallback& progress, const std::string& name) {
+  const auto t_start = Clock::now();
+  require_valid_volume(mesh, name, 0.0);
+  require_ball_topology(mesh, name);
+  BallParamResult res;
+  const int n = mesh.num_vertices();
+
+  // Steps 1-3: AST.
+  Eigen::MatrixXd V = mesh.V;
+  if (opt.anisotropic_scaling) {
+    res.ast = anisotropic_scaling(mesh.V);
+    V = res.ast.apply(mesh.V);
+  }
+
+  // Step 5: B and I; step 6: spherical area-preserving boundary map.
+  TetMesh am;
+  am.V = V;
+  am.T = mesh.T;
+  const TetBoundary tb = boundary_surface(am);
+  const int nB = int(tb.to_volume.size());
+  res.boundary = tb.to_volume;
+  auto t0 = Clock::now();
+  const SphereParamResult sph = spherical_area_preserving_map(tb.surface, {}, opt.sphere, progress);
+  res.seconds_sphere = since(t0);
+  res.sphere_folded_faces = sph.folded_faces;
+
+  // Steps 7-13: VSEM fixed point.
+  VsemOptions vo;
+  vo.iterations = opt.vsem_iterations;
+  const VsemResult vs = vsem_fixed_point(V, mesh.T, tb.to_volume, sph.S, vo, progress);
+  res.seconds_vsem = vs.seconds;
+  res.f_vsem = vs.f;
+
+  // Permuted numbering: interior first.
+  std::vector<char> isb(n, 0);
+  for (int b = 0; b < nB; ++b) isb[tb.to_volume(b)] = 1;
+  Eigen::VectorXi perm, iperm;
+  const int nI = interior_first_order(isb, perm, iperm);
+  Eigen::MatrixXi Tp(mesh.T.rows(), 4);
+  for (Eigen::Index t = 0; t < mesh.T.rows(); ++t)
+    for (int c = 0; c < 4; ++c) Tp(t, c) = perm(mesh.T(t, c));
+  Eigen::MatrixXd Vp(n, 3), fp(n, 3);
+  for (int i = 0; i < n; ++i) {
+    Vp.row(perm(i)) = V.row(i);
+    fp.row(perm(i)) = vs.f.row(i);
+  }
+  const IsovolumetricEnergy energy(Vp, Tp);
+  Eigen::VectorXi interior(nI), boundary(nB);
+  std::iota(interior.data(), interior.data() + nI, 0);
+  std::iota(boundary.data(), boundary.data() + nB, nI);
+  SphericalBallEnergy sbe(energy, interior, boundary);
+  // Boundary faces in boundary-local numbering (for the frame choice).
+  Eigen::MatrixXi Fb = energy.boundary_faces();
+  for (Eigen::Index k = 0; k < Fb.rows(); ++k)
+    for (int c = 0; c < 3; ++c) Fb(k, c) -= nI;
+
+  // Steps 13-16: L_V(f^(0)), preconditioner blocks, Cholesky factors (once).
+  t0 = Clock::now();
+  Eigen::SparseMatrix<double> L;
+  energy.stretch_laplacian(fp, L);
+  SparseCholesky cholI, cholB;
+  if (nI > 0) {
+    Eigen::SparseMatrix<double> LII = L.topLeftCorner(nI, nI);
+    cholI.compute(LII);
+  }
+  {
+    Eigen::SparseMatrix<double> LBB = L.bottomRightCorner(nB, nB);
+    cholB.compute(LBB);
+  }
+  res.seconds_factor = since(t0);
+
+  // Step 17: spherical coordinates, in a pole-avoiding frame.
+  auto choose_frame = [&](const Eigen::MatrixXd& f, Eigen::VectorXd& s_phi) {
+    if (opt.rotate_frame) sbe.set_frame(pole_avoiding_frame(f.bottomRows(nB), Fb));
+    Eigen::VectorXd x = sbe.from_map(f);
+    s_phi.resize(nB);
+    for (int b = 0; b < nB; ++b)
+      s_phi(b) = opt.metric_phi_preconditioner ? std::max(1e-3, std::sin(x(3 * nI + b))) : 1.0;
+    return x;
+  };
+  Eigen::VectorXd s_phi;
+  Eigen::VectorXd x = choose_frame(fp, s_phi);
+  double s_min_chart = s_phi.minCoeff();
+
+  const int N = sbe.num_variables();
+  Eigen::MatrixXd gI(nI, 3), gB(nB, 2);
+  // h = M^{-1} g with M = blockdiag(I3 (x) L_II, L_BB, S L_BB S) (Eq. 16, step 22).
+  auto precondition = [&](const Eigen::VectorXd& g, Eigen::VectorXd& h) {
+    const auto ts = Clock::now();
+    h.resize(N);
+    if (nI > 0) {
+      for (int d = 0; d < 3; ++d) gI.col(d) = g.segment(d * nI, nI);
+      const Eigen::MatrixXd hI = cholI.solve(gI);
+      for (int d = 0; d < 3; ++d) h.segment(d * nI, nI) = hI.col(d);
+    }
+    gB.col(0) = g.segment(3 * nI, nB);
+    gB.col(1) = g.segment(3 * nI + nB, nB).cwiseQuotient(s_phi);
+    const Eigen::MatrixXd hB = cholB.solve(gB);
+    h.segment(3 * nI, nB) = hB.col(0);
+    h.segment(3 * nI + nB, nB) = hB.col(1).cwiseQuotient(s_phi);
+    res.seconds_cg_solve += since(ts);
+  };
+  const Objective objective = [&](const Eigen::VectorXd& xx, Eigen::VectorXd& gg) {
+    const auto te = Clock::now();
+    ++res.evaluations;
+    const double e = sbe.energy_and_gradient(xx, gg);
+    res.seconds_cg_eval += since(te);
+    return e;
+  };
+  auto energy_only = [&](const Eigen::VectorXd& xx) {
+    const auto te = Clock::now();
+    ++res.evaluations;
+    const double e = sbe.energy(xx);
+    res.seconds_cg_eval += since(te);
+    return e;
+  };
+
+  // Steps 18-38: preconditioned nonlinear CG.
+  const auto t_cg = Clock::now();
+  const std::clock_t c_cg = std::clock();
+  Eigen::VectorXd g(N), h(N), p(N), xn(N), gn(N);
+  double E = objective(x, g);
+  int folds = sbe.inverted_tets(x);
+  res.inverted_vsem = folds;
+  res.energy_vsem = E;
+  precondition(g, h);
+  double lambda = g.dot(h);  // step 24
+  p = -h;                    // step 25
+  double alpha_prev = opt.initial_step;
+  bool steepest = true;  // p == -M^{-1} g
+  for (int k = 0; k < opt.max_iterations; ++k) {
+    double dphi0 = g.dot(p);
+    if (!(dphi0 < 0)) {  // not a descent direction: restart along -M^{-1} g
+      p = -h;
+      dphi0 = -lambda;
+      ++res.restarts;
+      steepest = true;
+      if (!(dphi0 < 0)) break;  // zero gradient
+    }
+    // Step 32: alpha by the quadratic model through Phi(0), Phi'(0), Phi(alpha_prev) (Eq. 17).
+    double alpha = -1;
+    {
+      xn = x + alpha_prev * p;
+      const double Ea = energy_only(xn);
+      const double denom = 2 * (Ea - E - alpha_prev * dphi0);
+      if (std::isfinite(Ea) && denom > 0) alpha = -alpha_prev * alpha_prev * dphi0 / denom;
+    }
+    double En = std::numeric_limits<double>::infinity();
+    bool accepted = false;
+    if (alpha > 0 && std::isfinite(alpha)) {
+      xn = x + alpha * p;
+      En = objective(xn, gn);
+      accepted = En < E;
+    }
+    if (accepted) {
+      ++res.quadratic_steps;
+    } else {
+      // Fallback: strong Wolfe line search (Eq. 18), from the model step if it was usable.
+      const double a0 = (alpha > 0 && std::isfinite(alpha)) ? alpha : alpha_prev;
+      LineSearchResult ls = strong_wolfe_search(objective, x, E, g, p, a0, opt.c1, opt.c2,
+                                                opt.max_line_search, xn, gn);
+      if (!ls.ok || !(ls.f < E)) {
+        if (steepest) break;  // no progress even along -M^{-1} g
+        p = -h;
+        ++res.restarts;
+        steepest = true;
+        continue;
+      }
+      alpha = ls.alpha;
+      En = ls.f;
+      ++res.wolfe_steps;
+    }
+    // Optional guard: no step may increase the number of inverted tets.
+    if (opt.prevent_new_folds) {
+      int fn = sbe.inverted_tets(xn);
+      int tries = 0;
+      while (fn > folds && tries < 30) {
+        alpha *= 0.5;
+        xn = x + alpha * p;
+        En = objective(xn, gn);
+        fn = sbe.inverted_tets(xn);
+        ++tries;
+        ++res.fold_backtracks;
+      }
+      if (fn > folds || !(En < E)) {
+        if (steepest) break;
+        p = -h;
+        ++res.restarts;
+        steepest = true;
+        continue;
+      }
+      folds = fn;
+    }
+    // Steps 33-37.
+    const double delta = E - En;
+    x.swap(xn);
+    g.swap(gn);
+    E = En;
+    alpha_prev = alpha;
+    res.iterations = k + 1;
+    res.energies.push_back(E);
+    report(progress, "ball/cg", double(k + 1) / opt.max_iterations);
+    if (delta < opt.tolerance) {
+      res.converged = true;
+      break;
+    }
+    // Pole guard: a boundary vertex close to a pole of the frame -> new frame, restart.
+    bool new_frame = false;
+    if (opt.rotate_frame) {
+      double smin = 1;
+      for (int b = 0; b < nB; ++b) smin = std::min(smin, std::abs(std::sin(x(3 * nI + b))));
+      if (smin < opt.pole_guard * s_min_chart) {
+        Eigen::MatrixXd f;
+        sbe.to_map(x, f);
+        x = choose_frame(f, s_phi);
+        s_min_chart = s_phi.minCoeff();
+        E = objective(x, g);
+        ++res.frame_rotations;
+        new_frame = true;
+      }
+    }
+    // Steps 22, 27-30: h = M^{-1} g, beta = lambda / lambda_0 (Eq. 16c), p = -h + beta p.
+    precondition(g, h);
+    const double lambda0 = lambda;
+    lambda = g.dot(h);
+    if (new_frame) {
+      p = -h;
+      ++res.restarts;
+      steepest = true;
+    } else {
+      const double beta = lambda / lambda0;
+      p = -h + beta * p;
+      steepest = false;
+    }
+  }
+  res.seconds_cg = since(t_cg);
+  res.cpu_seconds_cg = double(std::clock() - c_cg) / CLOCKS_PER_SEC;
+  res.inverted_final = sbe.inverted_tets(x);
+  res.energy_final = E;
+
+  Eigen::MatrixXd f;
+  sbe.to_map(x, f);
+  res.f.resize(n, 3);
+  for (int i = 0; i < n; ++i) res.f.row(i) = f.row(perm(i));
+  report(progress, "ball/cg", 1.0);
+  res.seconds_total = since(t_start);
+  return res;
+}
+
+}  // namespace shapemap

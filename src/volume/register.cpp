@@ -1,0 +1,106 @@
+// Registration through the ball (isovolumetric-ball-parameterization.txt, Sec. 7).
+#include "shapemap/volume/register.h"
+#include "shapemap/error.h"
+#include "shapemap/geometry/closest_point.h"
+#include <Eigen/SVD>
+#include <chrono>
+#include <cmath>
+
+namespace shapemap {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+}  // namespace
+
+Eigen::VectorXd vertex_volumes(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T) {
+  const Eigen::VectorXd vol = tet_volumes(V, T);
+  Eigen::VectorXd w = Eigen::VectorXd::Zero(V.rows());
+  for (Eigen::Index t = 0; t < T.rows(); ++t)
+    for (int c = 0; c < 4; ++c) w(T(t, c)) += 0.25 * std::abs(vol(t));
+  return w;
+}
+
+Eigen::Matrix3d ball_procrustes_rotation(const Eigen::MatrixXd& f, const Eigen::MatrixXd& V,
+                                         const Eigen::VectorXd& w) {
+  if (f.rows() != V.rows() || w.size() != V.rows() || f.cols() != 3 || V.cols() != 3)
+    throw InputError("ball_procrustes_rotation: f, V must be n×3 and w of size n");
+  // min sum w ||g f - v||^2  <=>  max tr(g H), H = sum w f v^T.
+  Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+  for (Eigen::Index i = 0; i < f.rows(); ++i)
+    H += w(i) * f.row(i).transpose() * V.row(i);
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const Eigen::Matrix3d U = svd.matrixU(), W = svd.matrixV();
+  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+  D(2, 2) = (W * U.transpose()).determinant() < 0 ? -1.0 : 1.0;
+  return W * D * U.transpose();
+}
+
+std::vector<Eigen::MatrixXd> linear_homotopy(const Eigen::MatrixXd& V, const Eigen::MatrixXd& phi,
+                                             int K) {
+  if (K < 2) throw InputError("linear homotopy: need at least 2 frames");
+  std::vector<Eigen::MatrixXd> H;
+  for (int k = 0; k < K; ++k) {
+    const double t = double(k) / double(K - 1);
+    H.push_back((1 - t) * V + t * phi);  // Eq. 46
+  }
+  return H;
+}
+
+RegisterResult register_through_ball(const TetMesh& A, const TetMesh& B, const RegisterOptions& opt,
+                                     const ProgressCallback& progress, const std::string& nameA,
+                                     const std::string& nameB) {
+  const auto t0 = Clock::now();
+  RegisterResult r;
+  auto sub = [&](const std::string& which) -> ProgressCallback {
+    if (!progress) return {};
+    return [progress, which](const std::string& stage, double f) { progress(which + "/" + stage, f); };
+  };
+  r.ball_A = ball_parameterization(A, opt.ball, sub("A"), nameA);
+  r.ball_B = ball_parameterization(B, opt.ball, sub("B"), nameB);
+
+  // Optimal rotations g_s (volume-weighted Procrustes).
+  auto rotation = [&](const TetMesh& M, const Eigen::MatrixXd& f) {
+    const Eigen::VectorXd w = vertex_volumes(M.V, M.T);
+    Eigen::MatrixXd V = M.V;
+    if (opt.center) {
+      const Eigen::RowVector3d c = (w.transpose() * M.V) / w.sum();
+      V.rowwise() -= c;
+    }
+    return ball_procrustes_rotation(f, V, w);
+  };
+  r.g_A = rotation(A, r.ball_A.f);
+  r.g_B = rotation(B, r.ball_B.f);
+  r.h = r.g_B.transpose() * r.g_A;  // h = g_1^{-1} g_0
+
+  // phi = f_1^{-1} o h o f_0: locate h f_0(v) in B's ball mesh.
+  const auto tl = Clock::now();
+  TetLocator loc(r.ball_B.f, B.T);
+  const Eigen::MatrixXd P = r.ball_A.f * r.h.transpose();
+  const std::vector<ClosestPointResult> hits = loc.locate(P);
+  const int nA = A.num_vertices();
+  r.map_AB.elem.resize(nA);
+  r.map_AB.bary.resize(nA, 4);
+  for (int i = 0; i < nA; ++i) {
+    r.map_AB.elem(i) = hits[i].elem;
+    Eigen::Vector4d b = hits[i].bary.cwiseMax(0.0);
+    b /= b.sum();
+    r.map_AB.bary.row(i) = b.transpose();
+    if (hits[i].sqdist > 1e-20) ++r.outside;
+  }
+  r.A_on_B = map_positions(r.map_AB, B.V, B.T);
+  r.seconds_locate = since(tl);
+
+  // d(phi) (Sec. 7).
+  const Eigen::VectorXd w = vertex_volumes(A.V, A.T);
+  double s = 0;
+  for (int i = 0; i < nA; ++i) s += (A.V.row(i) - r.A_on_B.row(i)).norm() * w(i);
+  r.d_phi = s / w.sum();
+  const double diag = (A.V.colwise().maxCoeff() - A.V.colwise().minCoeff()).norm();
+  r.d_phi_relative = diag > 0 ? r.d_phi / diag : 0;
+  if (opt.frames >= 2) r.frames = linear_homotopy(A.V, r.A_on_B, opt.frames);
+  r.seconds_total = since(t0);
+  return r;
+}
+
+}  // namespace shapemap

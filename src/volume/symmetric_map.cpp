@@ -1,0 +1,654 @@
+// Symmetric volume maps: symmetric-volume-maps.txt Secs. 4-5, Algorithm 1.
+#include "shapemap/volume/symmetric_map.h"
+#include "shapemap/adjacency.h"
+#include "shapemap/error.h"
+#include "shapemap/geometry/mass.h"
+#include "shapemap/optim/lbfgs.h"
+#include <Eigen/Dense>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <functional>
+#include <limits>
+
+namespace shapemap {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+// Boundary face f of M (surface numbering of `bd`) with barycentric b -> (tet, 4 coords).
+void face_to_tet(const TetMesh& M, const TetBoundary& bd, int f, const Eigen::Vector3d& b,
+                 int& tet, Eigen::Vector4d& bary) {
+  tet = bd.face_tet(f);
+  bary.setZero();
+  for (int c = 0; c < 3; ++c) {
+    int v = bd.to_volume(bd.surface.F(f, c));
+    int corner = -1;
+    for (int q = 0; q < 4; ++q)
+      if (M.T(tet, q) == v) corner = q;
+    if (corner < 0) throw Error("boundary_surface: face_tet does not contain the face");
+    bary(corner) += b(c);
+  }
+}
+
+// One tet incident to each vertex, and the corner of the vertex in it (-1 if unused).
+void vertex_first_tet(const TetMesh& M, std::vector<int>& tet, std::vector<int>& corner) {
+  tet.assign(M.num_vertices(), -1);
+  corner.assign(M.num_vertices(), -1);
+  for (int k = 0; k < M.num_tets(); ++k)
+    for (int q = 0; q < 4; ++q)
+      if (tet[M.T(k, q)] < 0) {
+        tet[M.T(k, q)] = k;
+        corner[M.T(k, q)] = q;
+      }
+}
+
+// Nearest row of S (k×3) to each row of Q (n×3), brute force, parallel over Q.
+std::vector<int> nearest_rows(const Eigen::MatrixXd& Q, const Eigen::MatrixXd& S) {
+  std::vector<int> out(Q.rows(), -1);
+  const int k = int(S.rows());
+#pragma omp parallel for schedule(static)
+  for (int i = 0; i < int(Q.rows()); ++i) {
+    double best = std::numeric_limits<double>::infinity();
+    int bi = -1;
+    for (int j = 0; j < k; ++j) {
+      double d = (S.row(j) - Q.row(i)).squaredNorm();
+      if (d < best) {
+        best = d;
+        bi = j;
+      }
+    }
+    out[i] = bi;
+  }
+  return out;
+}
+
+Eigen::VectorXd boundary_vertex_areas(const TriMesh& S) { return lumped_mass(S.V, S.F); }
+
+Eigen::MatrixXi faces_in_volume_numbering(const TetBoundary& bd) {
+  Eigen::MatrixXi F = bd.surface.F;
+  for (int f = 0; f < F.rows(); ++f)
+    for (int c = 0; c < 3; ++c) F(f, c) = bd.to_volume(F(f, c));
+  return F;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------
+// Locating positions in a tet mesh
+
+BarycentricMap locate_in_tets(const TetMesh& M, const Eigen::MatrixXd& X,
+                              const std::vector<int>& boundary_rows) {
+  BarycentricMap map;
+  const int n = int(X.rows());
+  map.elem.resize(n);
+  map.bary.resize(n, 4);
+  TetLocator loc(M.V, M.T);
+  std::vector<ClosestPointResult> r = loc.locate(X);
+  for (int i = 0; i < n; ++i) {
+    map.elem(i) = r[i].elem;
+    Eigen::Vector4d b = r[i].bary.cwiseMax(0.0);
+    double s = b.sum();
+    map.bary.row(i) = (s > 0 ? Eigen::Vector4d(b / s) : Eigen::Vector4d(1, 0, 0, 0)).transpose();
+  }
+  if (!boundary_rows.empty()) {
+    TetBoundary bd = boundary_surface(M);
+    ClosestPoint3 bvh(bd.surface.V, bd.surface.F);
+    Eigen::MatrixXd Q(boundary_rows.size(), 3);
+    for (size_t q = 0; q < boundary_rows.size(); ++q) Q.row(q) = X.row(boundary_rows[q]);
+    std::vector<ClosestPointResult> rb = bvh.query(Q);
+    for (size_t q = 0; q < boundary_rows.size(); ++q) {
+      int tet;
+      Eigen::Vector4d b;
+      face_to_tet(M, bd, rb[q].elem, rb[q].bary.head<3>(), tet, b);
+      map.elem(boundary_rows[q]) = tet;
+      map.bary.row(boundary_rows[q]) = b.transpose();
+    }
+  }
+  return map;
+}
+
+// ---------------------------------------------------------------------------------
+// Initializations (Sec. 5.1)
+
+BarycentricMap landmark_initial_map(const TetMesh& A, const TetMesh& B, const std::vector<int>& LA,
+                                    const std::vector<int>& LB) {
+  if (LA.size() != LB.size())
+    throw InputError("landmarks: " + std::to_string(LA.size()) + " landmarks on A but " +
+                     std::to_string(LB.size()) + " on B (counts must be equal)");
+  if (LA.empty()) throw InputError("landmarks: no landmarks given");
+  for (int v : LA)
+    if (v < 0 || v >= A.num_vertices())
+      throw InputError("landmarks: index " + std::to_string(v) + " out of range for A (" +
+                       std::to_string(A.num_vertices()) + " vertices)");
+  for (int v : LB)
+    if (v < 0 || v >= B.num_vertices())
+      throw InputError("landmarks: index " + std::to_string(v) + " out of range for B (" +
+                       std::to_string(B.num_vertices()) + " vertices)");
+  std::vector<int> tet, corner;
+  vertex_first_tet(B, tet, corner);
+  for (int v : LB)
+    if (tet[v] < 0) throw InputError("landmarks: vertex " + std::to_string(v) + " of B is in no tet");
+  Eigen::MatrixXd S(LA.size(), 3);
+  for (size_t k = 0; k < LA.size(); ++k) S.row(k) = A.V.row(LA[k]);
+  std::vector<int> near = nearest_rows(A.V, S);
+  BarycentricMap map;
+  map.elem.resize(A.num_vertices());
+  map.bary.setZero(A.num_vertices(), 4);
+  for (int i = 0; i < A.num_vertices(); ++i) {
+    int t = LB[near[i]];
+    map.elem(i) = tet[t];
+    map.bary(i, corner[t]) = 1.0;
+  }
+  return map;
+}
+
+BarycentricMap boundary_initial_map(const TetMesh& A, const TetMesh& B,
+                                    const Eigen::MatrixXd& boundary_targets) {
+  TetBoundary bA = boundary_surface(A), bB = boundary_surface(B);
+  const int nb = int(bA.to_volume.size());
+  if (boundary_targets.rows() != nb || boundary_targets.cols() != 3)
+    throw InputError("surface map: " + std::to_string(boundary_targets.rows()) +
+                     " boundary images for " + std::to_string(nb) + " boundary vertices of A");
+  ClosestPoint3 bvh(bB.surface.V, bB.surface.F);
+  std::vector<ClosestPointResult> r = bvh.query(boundary_targets);
+  BarycentricMap map;
+  map.elem.setConstant(A.num_vertices(), -1);
+  map.bary.setZero(A.num_vertices(), 4);
+  for (int i = 0; i < nb; ++i) {
+    int tet;
+    Eigen::Vector4d b;
+    face_to_tet(B, bB, r[i].elem, r[i].bary.head<3>(), tet, b);
+    map.elem(bA.to_volume(i)) = tet;
+    map.bary.row(bA.to_volume(i)) = b.transpose();
+  }
+  // Interior vertices: the target of the closest boundary vertex.
+  std::vector<int> interior;
+  for (int v = 0; v < A.num_vertices(); ++v)
+    if (bA.to_surface(v) < 0) interior.push_back(v);
+  Eigen::MatrixXd Q(interior.size(), 3);
+  for (size_t q = 0; q < interior.size(); ++q) Q.row(q) = A.V.row(interior[q]);
+  std::vector<int> near = nearest_rows(Q, bA.surface.V);
+  for (size_t q = 0; q < interior.size(); ++q) {
+    int src = bA.to_volume(near[q]);
+    map.elem(interior[q]) = map.elem(src);
+    map.bary.row(interior[q]) = map.bary.row(src);
+  }
+  return map;
+}
+
+BarycentricMap surface_initial_map(const TetMesh& A, const TetMesh& B, const TriMesh& SA,
+                                   const TriMesh& SB, const BarycentricMap& map_AB) {
+  validate_map(map_AB, SA.num_vertices(), SB.num_faces(), 3, "surface map A->B");
+  Eigen::MatrixXd img = map_positions(map_AB, SB.V, SB.F);  // SA vertices -> B space
+  TetBoundary bA = boundary_surface(A);
+  ClosestPoint3 bvh(SA.V, SA.F);
+  std::vector<ClosestPointResult> r = bvh.query(bA.surface.V);
+  Eigen::MatrixXd targets(bA.surface.V.rows(), 3);
+  for (int i = 0; i < targets.rows(); ++i) {
+    Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
+    for (int c = 0; c < 3; ++c) p += r[i].bary(c) * img.row(SA.F(r[i].elem, c));
+    targets.row(i) = p;
+  }
+  return boundary_initial_map(A, B, targets);
+}
+
+// ---------------------------------------------------------------------------------
+// The X-step objective of one direction
+
+DirectionalEnergy::DirectionalEnergy(const TetMesh& Mi, const TetMesh& Mj) : Mi_(Mi), Mj_(Mj) {
+  arap_.build(Mi_.V, Mi_.T);
+  bi_ = boundary_surface(Mi_);
+  bj_ = boundary_surface(Mj_);
+  Ci_ = tet_lumped_mass(Mi_.V, Mi_.T);
+  Cj_ = tet_lumped_mass(Mj_.V, Mj_.T);
+  ci_ = Ci_.sum();
+  cj_ = Cj_.sum();
+  ai_ = boundary_vertex_areas(bi_.surface);
+  aj_ = boundary_vertex_areas(bj_.surface);
+  si_ = ai_.sum();
+  sj_ = aj_.sum();
+  Fi_vol_ = faces_in_volume_numbering(bi_);
+  target_boundary_.build(bj_.surface.V, bj_.surface.F);
+}
+
+void DirectionalEnergy::set_weights(double alpha, double beta, double gamma, double backward_scale) {
+  alpha_ = alpha;
+  beta_ = beta;
+  gamma_ = gamma;
+  bscale_ = backward_scale;
+}
+
+void DirectionalEnergy::set_maps(const BarycentricMap& P_ij, const BarycentricMap& P_ji) {
+  PijVj_ = map_positions(P_ij, Mj_.V, Mj_.T);
+  Pji_ = P_ji;
+  Pji_verts_.resize(P_ji.size(), 4);
+  for (int r = 0; r < P_ji.size(); ++r)
+    for (int q = 0; q < 4; ++q) Pji_verts_(r, q) = Mi_.T(P_ji.elem(r), q);
+}
+
+double DirectionalEnergy::evaluate(const Eigen::MatrixXd& X, Eigen::MatrixXd* grad,
+                                   Terms* terms) const {
+  const int ni = Mi_.num_vertices(), nj = Mj_.num_vertices();
+  Terms t;
+  // E_ARAP (Eq. 20)
+  // Terms with zero weight are skipped unless `terms` asks for them.
+  const bool all = terms != nullptr;
+  t.arap = (alpha_ != 0 || all) ? arap_.energy(X, alpha_ != 0 ? grad : nullptr) : 0.0;
+  if (grad) {
+    if (alpha_ != 0)
+      *grad *= alpha_;
+    else
+      grad->setZero(ni, 3);
+  }
+  // E_Q (Eq. 17): 1/(c_i c_j) sum_v C_i(v) |X_v - (P_ij V_j)_v|^2
+  {
+    Eigen::MatrixXd D = X - PijVj_;
+    Eigen::VectorXd r = D.rowwise().squaredNorm();
+    t.auxiliary = Ci_.dot(r) / (ci_ * cj_);
+    if (grad && beta_ != 0) grad->noalias() += (2.0 * beta_ / (ci_ * cj_)) * (Ci_.asDiagonal() * D);
+  }
+  // E_R (Eq. 18, term (j,i)): 1/c_j^2 sum_w C_j(w) |(P_ji X)_w - V_j(w)|^2
+  if (alpha_ != 1 || all) {
+    Eigen::MatrixXd D(nj, 3);
+#pragma omp parallel for schedule(static)
+    for (int w = 0; w < nj; ++w) {
+      Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
+      for (int q = 0; q < 4; ++q) p += Pji_.bary(w, q) * X.row(Pji_verts_(w, q));
+      D.row(w) = p - Mj_.V.row(w);
+    }
+    t.reversibility = Cj_.dot(D.rowwise().squaredNorm()) / (cj_ * cj_);
+    if (grad && alpha_ != 1) {
+      const double s = 2.0 * (1.0 - alpha_) / (cj_ * cj_);
+      for (int w = 0; w < nj; ++w)  // serial scatter (deterministic)
+        for (int q = 0; q < 4; ++q)
+          grad->row(Pji_verts_(w, q)) += (s * Cj_(w) * Pji_.bary(w, q)) * D.row(w);
+    }
+  }
+  // E_P,f (Eq. 21): boundary vertices of M_i at X, to dM_j.
+  if (gamma_ != 0 || all) {
+    const int nb = int(bi_.to_volume.size());
+    Eigen::MatrixXd Q(nb, 3);
+    for (int b = 0; b < nb; ++b) Q.row(b) = X.row(bi_.to_volume(b));
+    std::vector<ClosestPointResult> r = target_boundary_.query(Q);
+    double e = 0;
+    for (int b = 0; b < nb; ++b) {
+      Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
+      for (int c = 0; c < 3; ++c) p += r[b].bary(c) * bj_.surface.V.row(bj_.surface.F(r[b].elem, c));
+      Eigen::RowVector3d d = Q.row(b) - p;
+      e += ai_(b) * d.squaredNorm();
+      if (grad && gamma_ != 0) grad->row(bi_.to_volume(b)) += (2.0 * gamma_ * ai_(b) / si_) * d;
+    }
+    t.projection_forward = e / si_;
+    // E_P,b (Eq. 22): boundary vertices of M_j (rest) to the mapped boundary dF_i(X).
+    if (bscale_ != 0 || all) {
+      if (!mapped_built_) {
+        mapped_boundary_.build(X, Fi_vol_);
+        mapped_built_ = true;
+      } else {
+        mapped_boundary_.refit(X);
+      }
+      const int nbj = int(bj_.to_volume.size());
+      std::vector<ClosestPointResult> rb = mapped_boundary_.query(bj_.surface.V);
+      double eb = 0;
+      const double s = 2.0 * gamma_ * bscale_ / sj_;
+      for (int b = 0; b < nbj; ++b) {
+        Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
+        for (int c = 0; c < 3; ++c) p += rb[b].bary(c) * X.row(Fi_vol_(rb[b].elem, c));
+        Eigen::RowVector3d d = bj_.surface.V.row(b) - p;
+        eb += aj_(b) * d.squaredNorm();
+        if (grad && s != 0)
+          for (int c = 0; c < 3; ++c)
+            grad->row(Fi_vol_(rb[b].elem, c)) -= (s * aj_(b) * rb[b].bary(c)) * d;
+      }
+      t.projection_backward = eb / sj_;
+    }
+  }
+  t.total = alpha_ * t.arap + (1 - alpha_) * t.reversibility +
+            gamma_ * (t.projection_forward + bscale_ * t.projection_backward) + beta_ * t.auxiliary;
+  if (terms) *terms = t;
+  return t.total;
+}
+
+// ---------------------------------------------------------------------------------
+// Algorithm 1
+
+namespace {
+
+// P-step of one direction (Sec. 5.2): rows of P_ij are independent closest-point
+// projections in R^6 onto M_j's tets with vertex coordinates [sqrt(a) X_ji, sqrt(b) V_j],
+// of the points [sqrt(a) V_i, sqrt(b) X_ij]; a = (1-alpha)/c_i^2, b = beta/(c_i c_j).
+class PStep {
+ public:
+  PStep(const TetMesh& Mi, const TetMesh& Mj, double ci, double cj)
+      : Mi_(Mi), Mj_(Mj), ci_(ci), cj_(cj) {
+    bj_ = boundary_surface(Mj);
+    bi_ = boundary_surface(Mi);
+  }
+  void run(const Eigen::MatrixXd& Xij, const Eigen::MatrixXd& Xji, double alpha, double beta,
+           bool boundary_to_boundary, const std::vector<char>* keep_rows,
+           const BarycentricMap& P0, BarycentricMap& P) {
+    const double a = std::sqrt(std::max(0.0, (1 - alpha) / (ci_ * ci_)));
+    const double b = std::sqrt(std::max(0.0, beta / (ci_ * cj_)));
+    const int nj = Mj_.num_vertices(), ni = Mi_.num_vertices();
+    W_.resize(nj, 6);
+    W_.leftCols(3) = a * Xji;
+    W_.rightCols(3) = b * Mj_.V;
+    if (!built_) {
+      bvh_.build(W_, Mj_.T);
+      if (boundary_to_boundary) bvh_bd_.build(W_, faces_in_volume_numbering(bj_));
+      built_ = true;
+    } else {
+      bvh_.refit(W_);
+      if (boundary_to_boundary) bvh_bd_.refit(W_);
+    }
+    Q_.resize(ni, 6);
+    Q_.leftCols(3) = a * Mi_.V;
+    Q_.rightCols(3) = b * Xij;
+    std::vector<ClosestPointResult> r = bvh_.query(Q_);
+    P.elem.resize(ni);
+    P.bary.resize(ni, 4);
+    for (int v = 0; v < ni; ++v) {
+      P.elem(v) = r[v].elem;
+      Eigen::Vector4d w = r[v].bary.cwiseMax(0.0);
+      double s = w.sum();
+      P.bary.row(v) = (s > 0 ? Eigen::Vector4d(w / s) : Eigen::Vector4d(1, 0, 0, 0)).transpose();
+    }
+    if (boundary_to_boundary) {
+      const int nb = int(bi_.to_volume.size());
+      Eigen::MatrixXd Qb(nb, 6);
+      for (int q = 0; q < nb; ++q) Qb.row(q) = Q_.row(bi_.to_volume(q));
+      std::vector<ClosestPointResult> rb = bvh_bd_.query(Qb);
+      for (int q = 0; q < nb; ++q) {
+        int tet;
+        Eigen::Vector4d w;
+        face_to_tet(Mj_, bj_, rb[q].elem, rb[q].bary.head<3>(), tet, w);
+        P.elem(bi_.to_volume(q)) = tet;
+        P.bary.row(bi_.to_volume(q)) = w.transpose();
+      }
+    }
+    if (keep_rows)  // Algorithm 1 line 10: restore the boundary map
+      for (int v = 0; v < ni; ++v)
+        if ((*keep_rows)[v]) {
+          P.elem(v) = P0.elem(v);
+          P.bary.row(v) = P0.bary.row(v);
+        }
+  }
+
+ private:
+  const TetMesh& Mi_;
+  const TetMesh& Mj_;
+  double ci_, cj_;
+  TetBoundary bi_, bj_;
+  ClosestPoint6 bvh_, bvh_bd_;
+  bool built_ = false;
+  Eigen::MatrixXd W_, Q_;
+};
+
+// L-BFGS over the rows `free_rows` of X (others fixed) of an objective on the full X.
+// Returns the L-BFGS result (f and grad_norm at the final X).
+LbfgsResult minimize_rows(const std::function<double(const Eigen::MatrixXd&, Eigen::MatrixXd*)>& f,
+                          Eigen::MatrixXd& X, const std::vector<int>& free_rows, int iterations,
+                          int memory) {
+  const int k = int(free_rows.size());
+  Eigen::VectorXd x(3 * k);
+  for (int q = 0; q < k; ++q) x.segment<3>(3 * q) = X.row(free_rows[q]).transpose();
+  Eigen::MatrixXd Xf = X, G;
+  Eigen::VectorXd last_z, last_g;
+  double last_f = 0;
+  Objective obj = [&](const Eigen::VectorXd& z, Eigen::VectorXd& g) {
+    for (int q = 0; q < k; ++q) Xf.row(free_rows[q]) = z.segment<3>(3 * q).transpose();
+    double e = f(Xf, &G);
+    for (int q = 0; q < k; ++q) g.segment<3>(3 * q) = G.row(free_rows[q]).transpose();
+    last_z = z;
+    last_g = g;
+    last_f = e;
+    return e;
+  };
+  LbfgsOptions lo;
+  lo.max_iterations = iterations;
+  lo.memory = memory;
+  lo.grad_tol = 1e-10;
+  lo.f_decrease_tol = 1e-12;
+  LbfgsResult res;
+  if (k > 0 && iterations > 0) {
+    res = lbfgs_minimize(obj, x, lo);
+  } else {
+    Eigen::VectorXd g(3 * k);
+    res.f = obj(x, g);
+    res.grad_norm = k > 0 ? g.lpNorm<Eigen::Infinity>() : 0.0;
+  }
+  for (int q = 0; q < k; ++q) X.row(free_rows[q]) = x.segment<3>(3 * q).transpose();
+  // Report the Euclidean norm of the gradient at the final point (Sec. 5.4 (i)).
+  if (k > 0 && (last_z.size() != x.size() || last_z != x)) {
+    Eigen::VectorXd g(3 * k);
+    obj(x, g);
+  }
+  res.f = k > 0 ? last_f : res.f;
+  res.grad_norm = k > 0 ? last_g.norm() : 0.0;
+  return res;
+}
+
+int count_inverted(const ArapEnergy& arap, const Eigen::MatrixXd& X) {
+  Eigen::VectorXd d = arap.determinants(X);
+  int c = 0;
+  for (int k = 0; k < d.size(); ++k) c += d(k) <= 0;
+  return c;
+}
+
+// Vertices of inverted tets (det J <= 0), grown by `rings` rings; and the tets incident
+// to them.
+void inverted_neighbourhood(const ArapEnergy& arap, const Eigen::MatrixXd& X, int rings,
+                            const std::vector<std::vector<int>>& vv,
+                            const std::vector<std::vector<int>>& vt, std::vector<int>& verts,
+                            std::vector<int>& tets) {
+  const Eigen::MatrixXi& T = arap.tets();
+  Eigen::VectorXd d = arap.determinants(X);
+  std::vector<char> in(arap.num_vertices(), 0);
+  for (int k = 0; k < d.size(); ++k)
+    if (d(k) <= 0)
+      for (int q = 0; q < 4; ++q) in[T(k, q)] = 1;
+  for (int r = 0; r < rings; ++r) {
+    std::vector<char> next = in;
+    for (int v = 0; v < int(in.size()); ++v)
+      if (in[v])
+        for (int w : vv[v]) next[w] = 1;
+    in.swap(next);
+  }
+  verts.clear();
+  for (int v = 0; v < int(in.size()); ++v)
+    if (in[v]) verts.push_back(v);
+  std::vector<char> tin(T.rows(), 0);
+  for (int v : verts)
+    for (int k : vt[v]) tin[k] = 1;
+  tets.clear();
+  for (int k = 0; k < int(tin.size()); ++k)
+    if (tin[k]) tets.push_back(k);
+}
+
+}  // namespace
+
+SymmetricVolumeMapResult symmetric_volume_map(const TetMesh& A, const TetMesh& B,
+                                              const BarycentricMap& init12,
+                                              const BarycentricMap& init21,
+                                              const SymmetricVolumeMapOptions& opt,
+                                              const ProgressCallback& progress) {
+  validate_map(init12, A.num_vertices(), B.num_tets(), 4, "initial map A->B");
+  validate_map(init21, B.num_vertices(), A.num_tets(), 4, "initial map B->A");
+  // Unit volume (Sec. 5.5).
+  Normalization nA = unit_volume_normalization(A), nB = unit_volume_normalization(B);
+  TetMesh M1{nA.apply(A.V), A.T}, M2{nB.apply(B.V), B.T};
+
+  DirectionalEnergy e12(M1, M2), e21(M2, M1);
+  const double c1 = e12.volume_i(), c2 = e21.volume_i();
+  PStep p12(M1, M2, c1, c2), p21(M2, M1, c2, c1);
+  const int n1 = M1.num_vertices(), n2 = M2.num_vertices();
+
+  SymmetricVolumeMapResult res;
+  BarycentricMap P12 = init12, P21 = init21;
+  const BarycentricMap P12_0 = init12, P21_0 = init21;  // Algorithm 1 lines 1-2
+  Eigen::MatrixXd X12 = map_positions(P12, M2.V, M2.T);  // line 3
+  Eigen::MatrixXd X21 = map_positions(P21, M1.V, M1.T);  // line 4
+
+  std::vector<char> bd1(n1, 0), bd2(n2, 0);
+  for (int i = 0; i < e12.boundary_i().to_volume.size(); ++i) bd1[e12.boundary_i().to_volume(i)] = 1;
+  for (int i = 0; i < e21.boundary_i().to_volume.size(); ++i) bd2[e21.boundary_i().to_volume(i)] = 1;
+  std::vector<int> all1(n1), all2(n2), int1, int2;
+  for (int v = 0; v < n1; ++v) {
+    all1[v] = v;
+    if (!bd1[v]) int1.push_back(v);
+  }
+  for (int v = 0; v < n2; ++v) {
+    all2[v] = v;
+    if (!bd2[v]) int2.push_back(v);
+  }
+
+  int global_iter = 0;
+  auto beta_at = [&](int it) {
+    if (opt.beta_ramp_iterations <= 0) return opt.beta_end;
+    double t = std::min(1.0, double(it) / opt.beta_ramp_iterations);
+    return opt.beta_start + (opt.beta_end - opt.beta_start) * t;
+  };
+  double beta = beta_at(0);
+  auto set_weights = [&](double a, double b, double g) {
+    e12.set_weights(a, b, g, opt.backward_projection_scale);
+    e21.set_weights(a, b, g, opt.backward_projection_scale);
+  };
+
+  // Stages 2 and 4: alternating P- and X-steps until a stopping rule of Sec. 5.4.
+  auto optimize = [&](const std::string& name, bool fix_boundary) {
+    SymmetricMapStage st;
+    st.name = name;
+    auto t0 = Clock::now();
+    double E_prev = std::numeric_limits<double>::infinity();
+    const std::vector<int>& free1 = fix_boundary ? int1 : all1;
+    const std::vector<int>& free2 = fix_boundary ? int2 : all2;
+    for (int it = 0; it < opt.max_iterations; ++it) {
+      beta = beta_at(global_iter);
+      set_weights(opt.alpha, beta, opt.gamma);
+      auto tp = Clock::now();
+      // P-steps (Algorithm 1 lines 8 / 18), boundary restored in stage 2 (line 10)
+      p12.run(X12, X21, opt.alpha, beta, opt.boundary_to_boundary, fix_boundary ? &bd1 : nullptr,
+              P12_0, P12);
+      p21.run(X21, X12, opt.alpha, beta, opt.boundary_to_boundary, fix_boundary ? &bd2 : nullptr,
+              P21_0, P21);
+      st.time_pstep += seconds_since(tp);
+      // X-steps (lines 9 / 19)
+      auto tx = Clock::now();
+      e12.set_maps(P12, P21);
+      e21.set_maps(P21, P12);
+      auto f12 = [&](const Eigen::MatrixXd& X, Eigen::MatrixXd* g) { return e12.evaluate(X, g); };
+      auto f21 = [&](const Eigen::MatrixXd& X, Eigen::MatrixXd* g) { return e21.evaluate(X, g); };
+      LbfgsResult r1 = minimize_rows(f12, X12, free1, opt.xstep_iterations, opt.lbfgs_memory);
+      LbfgsResult r2 = minimize_rows(f21, X21, free2, opt.xstep_iterations, opt.lbfgs_memory);
+      st.time_xstep += seconds_since(tx);
+      st.lbfgs_iterations += r1.iterations + r2.iterations;
+      st.evaluations += r1.evaluations + r2.evaluations;
+      double E = r1.f + r2.f;
+      double gn = std::sqrt(r1.grad_norm * r1.grad_norm + r2.grad_norm * r2.grad_norm);
+      ++global_iter;
+      ++st.iterations;
+      st.energy = E;
+      report(progress, "volume-map/" + name, double(it + 1) / opt.max_iterations);
+      st.energy_history.push_back(E);
+      st.gradient_history.push_back(gn);
+      bool ramp_done = beta_at(global_iter) == beta;  // beta no longer changes
+      if (it + 1 < opt.min_iterations) {
+        E_prev = E;
+        continue;
+      }
+      if (gn < opt.grad_tol) {
+        st.stop_reason = "gradient";
+        break;
+      }
+      if (ramp_done && E_prev - E < opt.decrease_tol) {
+        st.stop_reason = "decrease";
+        break;
+      }
+      E_prev = E;
+      if (it + 1 == opt.max_iterations) st.stop_reason = "iterations";
+    }
+    st.inverted12 = count_inverted(e12.arap(), X12);
+    st.inverted21 = count_inverted(e21.arap(), X21);
+    st.seconds = seconds_since(t0);
+    res.iterations += st.iterations;
+    res.stages.push_back(st);
+  };
+
+  auto vv1 = vertex_neighbors(M1.T, n1), vv2 = vertex_neighbors(M2.T, n2);
+  auto vt1 = vertex_elements(M1.T, n1), vt2 = vertex_elements(M2.T, n2);
+  // Stages 3 and 5: ARAP only on the neighbourhood of inverted tets (Sec. 5.3).
+  auto repair = [&](const std::string& name, int rings, int steps, int rounds) {
+    SymmetricMapStage st;
+    st.name = name;
+    auto t0 = Clock::now();
+    for (int dir = 0; dir < 2; ++dir) {
+      const ArapEnergy& arap = dir == 0 ? e12.arap() : e21.arap();
+      Eigen::MatrixXd& X = dir == 0 ? X12 : X21;
+      for (int round = 0; round < rounds; ++round) {
+        std::vector<int> verts, tets;
+        inverted_neighbourhood(arap, X, rings, dir == 0 ? vv1 : vv2, dir == 0 ? vt1 : vt2, verts,
+                               tets);
+        if (verts.empty()) break;
+        auto f = [&](const Eigen::MatrixXd& Y, Eigen::MatrixXd* g) { return arap.energy(Y, tets, g); };
+        LbfgsResult r = minimize_rows(f, X, verts, steps, opt.lbfgs_memory);
+        st.iterations += r.iterations;
+      }
+    }
+    set_weights(opt.alpha, beta, opt.gamma);
+    st.energy = e12.evaluate(X12) + e21.evaluate(X21);
+    st.inverted12 = count_inverted(e12.arap(), X12);
+    st.inverted21 = count_inverted(e21.arap(), X21);
+    st.seconds = seconds_since(t0);
+    res.stages.push_back(st);
+    report(progress, "volume-map/" + name, 1.0);
+  };
+
+  {  // Stage 1 record: the initial map.
+    SymmetricMapStage st;
+    st.name = "init";
+    set_weights(opt.alpha, beta, opt.gamma);
+    e12.set_maps(P12, P21);
+    e21.set_maps(P21, P12);
+    st.energy = e12.evaluate(X12) + e21.evaluate(X21);
+    st.inverted12 = count_inverted(e12.arap(), X12);
+    st.inverted21 = count_inverted(e21.arap(), X21);
+    res.stages.push_back(st);
+  }
+  if (opt.fix_boundary_first) optimize("boundary-fixed", true);        // stage 2
+  repair("repair", opt.repair_rings, opt.repair_iterations, 1);         // stage 3
+  optimize("full", false);                                              // stage 4
+  repair("post-repair", 0, opt.post_repair_steps, opt.post_repair_rounds);  // stage 5
+
+  // Final energies (Eq. 25 terms), unit-volume frame.
+  set_weights(opt.alpha, beta, opt.gamma);
+  e12.set_maps(P12, P21);
+  e21.set_maps(P21, P12);
+  DirectionalEnergy::Terms t1, t2;
+  res.E = e12.evaluate(X12, nullptr, &t1) + e21.evaluate(X21, nullptr, &t2);
+  res.E_arap = t1.arap + t2.arap;
+  res.E_R = t1.reversibility + t2.reversibility;
+  res.E_P = t1.projection_forward + t2.projection_forward +
+            opt.backward_projection_scale * (t1.projection_backward + t2.projection_backward);
+  res.E_Q = t1.auxiliary + t2.auxiliary;
+
+  // Outputs in the targets' original coordinates.
+  res.X12 = nB.undo(X12);
+  res.X21 = nA.undo(X21);
+  res.P12 = P12;
+  res.P21 = P21;
+  std::vector<int> b1, b2;
+  for (int v = 0; v < n1; ++v)
+    if (bd1[v]) b1.push_back(v);
+  for (int v = 0; v < n2; ++v)
+    if (bd2[v]) b2.push_back(v);
+  res.map12 = locate_in_tets(B, res.X12, b1);
+  res.map21 = locate_in_tets(A, res.X21, b2);
+  return res;
+}
+
+}  // namespace shapemap

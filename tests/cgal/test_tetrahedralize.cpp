@@ -1,0 +1,157 @@
+// Tetrahedralization (CGAL Mesh_3) of generated shapes: volume, orientation, boundary
+// topology, size control, determinism and input checks.
+#include "shapemap/checks.h"
+#include "shapemap/error.h"
+#include "shapemap/generate.h"
+#include "shapemap/mesh.h"
+#include "shapemap/volume/tetrahedralize.h"
+#include <gtest/gtest.h>
+#include <cmath>
+
+using namespace shapemap;
+
+namespace {
+
+void expect_valid_ball(const TetMesh& t) {
+  Eigen::VectorXd vol = tet_volumes(t.V, t.T);
+  EXPECT_GT(vol.minCoeff(), 0) << "inverted or flat tet";
+  // Every vertex is used by a tet (compacted).
+  std::vector<char> used(t.num_vertices(), 0);
+  for (int i = 0; i < t.num_tets(); ++i)
+    for (int j = 0; j < 4; ++j) used[t.T(i, j)] = 1;
+  for (int v = 0; v < t.num_vertices(); ++v) ASSERT_TRUE(used[v]) << "unused vertex " << v;
+  TetBoundary b = boundary_surface(t);
+  MeshReport r = check_surface(b.surface);
+  EXPECT_TRUE(r.closed);
+  EXPECT_EQ(r.non_manifold_edges, 0);
+  EXPECT_EQ(r.non_manifold_vertices, 0);
+  EXPECT_EQ(r.components, 1);
+  EXPECT_EQ(r.genus, 0);
+  EXPECT_GT(enclosed_volume(b.surface.V, b.surface.F), 0) << "boundary not outward";
+}
+
+}  // namespace
+
+TEST(Tetrahedralize, SphereVolumeTopologyAndCount) {
+  TriMesh s = make_sphere(2000);
+  TetrahedralizeOptions opt;
+  opt.target_tets = 10000;
+  TetMesh t = tetrahedralize(s, opt);
+  expect_valid_ball(t);
+  double vs = enclosed_volume(s.V, s.F), vt = signed_volume(t.V, t.T);
+  EXPECT_NEAR(vt / vs, 1.0, 0.02);
+  EXPECT_GT(t.num_tets(), opt.target_tets / 1.5);
+  EXPECT_LT(t.num_tets(), opt.target_tets * 1.5);
+  // Sliver removal: no tet flatter than a few degrees of dihedral angle.
+  double min_dihedral = 180;
+  for (int i = 0; i < t.num_tets(); ++i) {
+    Eigen::Vector3d p[4];
+    for (int j = 0; j < 4; ++j) p[j] = t.V.row(t.T(i, j));
+    const int e[6][4] = {{0, 1, 2, 3}, {0, 2, 1, 3}, {0, 3, 1, 2}, {1, 2, 0, 3}, {1, 3, 0, 2}, {2, 3, 0, 1}};
+    for (auto& q : e) {
+      Eigen::Vector3d ab = (p[q[1]] - p[q[0]]).normalized();
+      Eigen::Vector3d u = p[q[2]] - p[q[0]], w = p[q[3]] - p[q[0]];
+      u -= u.dot(ab) * ab, w -= w.dot(ab) * ab;
+      min_dihedral = std::min(min_dihedral, std::acos(std::clamp(u.normalized().dot(w.normalized()), -1.0, 1.0)) * 180 / M_PI);
+    }
+  }
+  EXPECT_GT(min_dihedral, 5.0);
+}
+
+TEST(Tetrahedralize, TargetCountsAndEdgeLength) {
+  TriMesh s = make_ellipsoid(1500, Eigen::Vector3d(1.0, 0.7, 0.5));
+  for (int n : {3000, 20000}) {
+    TetrahedralizeOptions opt;
+    opt.target_tets = n;
+    TetMesh t = tetrahedralize(s, opt);
+    EXPECT_GT(t.num_tets(), n / 1.5) << n;
+    EXPECT_LT(t.num_tets(), n * 1.5) << n;
+  }
+  // An edge length gives the same mesh as the tet count it corresponds to.
+  TetrahedralizeOptions a, b;
+  a.edge_length = 0.1;
+  b.edge_length = 0.05;
+  TetMesh ta = tetrahedralize(s, a), tb = tetrahedralize(s, b);
+  EXPECT_GT(double(tb.num_tets()) / ta.num_tets(), 4.0);  // 8 in the limit
+  expect_valid_ball(tb);
+}
+
+TEST(Tetrahedralize, DeterministicAndSeeded) {
+  TriMesh s = make_cube_sphere(800);
+  TetrahedralizeOptions opt;
+  opt.target_tets = 3000;
+  TetMesh t1 = tetrahedralize(s, opt), t2 = tetrahedralize(s, opt);
+  ASSERT_EQ(t1.num_tets(), t2.num_tets());
+  ASSERT_EQ(t1.num_vertices(), t2.num_vertices());
+  EXPECT_EQ((t1.V - t2.V).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_TRUE((t1.T.array() == t2.T.array()).all());
+}
+
+TEST(Tetrahedralize, GenusOneSolidTorus) {
+  TetrahedralizeOptions opt;
+  opt.target_tets = 4000;
+  TetMesh t = tetrahedralize(make_torus(1500), opt);
+  EXPECT_GT(tet_volumes(t.V, t.T).minCoeff(), 0);
+  MeshReport r = check_surface(boundary_surface(t).surface);
+  EXPECT_TRUE(r.closed);
+  EXPECT_EQ(r.genus, 1);
+}
+
+TEST(Tetrahedralize, RejectsBadInput) {
+  TriMesh s = make_sphere(200);
+  TriMesh open = s;
+  open.F.conservativeResize(s.num_faces() - 1, 3);  // a hole
+  EXPECT_THROW(tetrahedralize(open), InputError);
+  TriMesh flipped = s;
+  std::swap(flipped.F(0, 1), flipped.F(0, 2));  // one face against its neighbours
+  EXPECT_THROW(tetrahedralize(flipped), InputError);
+  TriMesh nonfinite = s;
+  nonfinite.V(3, 1) = std::nan("");
+  EXPECT_THROW(tetrahedralize(nonfinite), InputError);
+  TriMesh bad_index = s;
+  bad_index.F(2, 0) = s.num_vertices();
+  EXPECT_THROW(tetrahedralize(bad_index), InputError);
+  // Two spheres glued at one vertex: non-manifold vertex.
+  TriMesh two;
+  two.V.resize(2 * s.num_vertices() - 1, 3);
+  two.V.topRows(s.num_vertices()) = s.V;
+  Eigen::RowVector3d shift = s.V.row(0) * 2;
+  std::vector<int> map(s.num_vertices());
+  int k = s.num_vertices();
+  for (int v = 0; v < s.num_vertices(); ++v) {
+    if (v == 0) { map[v] = 0; continue; }
+    two.V.row(k) = -s.V.row(v) + shift;  // point reflection through vertex 0
+    map[v] = k++;
+  }
+  two.F.resize(2 * s.num_faces(), 3);
+  two.F.topRows(s.num_faces()) = s.F;
+  for (int f = 0; f < s.num_faces(); ++f)
+    two.F.row(s.num_faces() + f) << map[s.F(f, 0)], map[s.F(f, 1)], map[s.F(f, 2)];
+  EXPECT_THROW(tetrahedralize(two), InputError);
+  TetrahedralizeOptions neg;
+  neg.edge_length = -1;
+  EXPECT_THROW(tetrahedralize(s, neg), InputError);
+}
+
+TEST(Shapes, SimpleShapesAreClosedWithTheRightGenus) {
+  struct Case {
+    TriMesh m;
+    int genus;
+    int target;
+  };
+  std::vector<Case> cases = {{make_sphere(2000), 0, 2000},
+                             {make_ellipsoid(3000, Eigen::Vector3d(1, 2, 3)), 0, 3000},
+                             {make_cube_sphere(1500), 0, 1500},
+                             {make_torus(2000), 1, 2000}};
+  for (auto& c : cases) {
+    MeshReport r = check_surface(c.m);
+    EXPECT_TRUE(r.ok()) << (r.problems.empty() ? "" : r.problems[0]);
+    EXPECT_TRUE(r.closed);
+    EXPECT_EQ(r.genus, c.genus);
+    EXPECT_GT(enclosed_volume(c.m.V, c.m.F), 0);
+    EXPECT_NEAR(double(c.m.num_vertices()) / c.target, 1.0, 0.15);
+  }
+  TriMesh s = make_sphere(5000, 2.0);
+  EXPECT_NEAR(enclosed_volume(s.V, s.F), 4.0 / 3 * M_PI * 8, 0.01 * 4.0 / 3 * M_PI * 8);
+  EXPECT_NEAR(s.V.rowwise().norm().maxCoeff(), 2.0, 1e-12);
+}

@@ -1,0 +1,105 @@
+// Blended Intrinsic Maps: candidates and blend on a rotated sphere, bad input.
+#include "shapemap/error.h"
+#include "shapemap/generate.h"
+#include "shapemap/geometry/sampling.h"
+#include "shapemap/surface/bim.h"
+#include <Eigen/Geometry>
+#include <gtest/gtest.h>
+
+using namespace shapemap;
+
+namespace {
+Eigen::Matrix3d test_rotation() {
+  return (Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()) *
+          Eigen::AngleAxisd(1.9, Eigen::Vector3d::UnitZ()))
+      .toRotationMatrix();
+}
+}  // namespace
+
+TEST(Bim, MobiusCandidateRecoversRotation) {
+  TriMesh A = make_sphere(1500);
+  TriMesh B = A;
+  Eigen::Matrix3d R = test_rotation();
+  B.V = A.V * R.transpose();
+  BIMOptions o;
+  std::vector<int> lm = farthest_point_sampling_graph(A.V, A.F, 3, 0);
+  BIMSurface sa = bim_prepare(A, "A", o, lm), sb = bim_prepare(B, "B", o, lm);
+  o.landmarks_A = o.landmarks_B = lm;
+  auto cand = bim_candidates(sa, sb, o);
+  ASSERT_EQ(cand.size(), 1u);
+  Eigen::MatrixXd P = bim_apply(sa, sb, cand[0].mobius);  // normalized frame of B
+  Eigen::MatrixXd truth = sb.mesh.V;                     // same vertex numbering
+  Eigen::VectorXd err = (P - truth).rowwise().norm();
+  double scale = std::sqrt(1.0 / (4 * M_PI));  // radius of the unit-area sphere
+  std::printf("single Möbius map on rotated sphere: mean error %.4f max %.4f (radius %.3f)\n", err.mean(),
+              err.maxCoeff(), scale);
+  // Edge length is about 0.1 radius: errors well below one edge.
+  EXPECT_LT(err.mean(), 0.05 * scale);
+  EXPECT_LT(err.maxCoeff(), 0.1 * scale);
+  Eigen::VectorXd c = bim_confidence(sa, sb, cand[0].mobius);
+  EXPECT_GT(c.minCoeff(), 0.9);
+  EXPECT_GT(c.mean(), 0.98);
+}
+
+TEST(Bim, BlendOnRotatedSphere) {
+  TriMesh A = make_sphere(1500);
+  TriMesh B = A;
+  Eigen::Matrix3d R = test_rotation();
+  B.V = A.V * R.transpose();
+  BIMOptions o;
+  o.landmarks_A = o.landmarks_B = farthest_point_sampling_graph(A.V, A.F, 6, 0);
+  o.symmetric = true;
+  BIMResult r = blended_intrinsic_maps(A, B, o);
+  EXPECT_EQ(r.AB.num_candidates, 20);
+  Eigen::MatrixXd truth = A.V * R.transpose();
+  Eigen::VectorXd err = (r.AB.positions - truth).rowwise().norm();
+  std::printf("blend on rotated sphere: mean error %.4f max %.4f, integrated confidence %.4f, %zu maps\n",
+              err.mean(), err.maxCoeff(), r.AB.integrated_confidence, r.AB.selected.size());
+  EXPECT_LT(err.mean(), 0.04);  // unit sphere, edge length about 0.1
+  EXPECT_LT(err.maxCoeff(), 0.1);
+  EXPECT_GT(r.AB.integrated_confidence, 0.95);
+  double maxerr_ba = (r.BA.positions - A.V).rowwise().norm().maxCoeff();
+  EXPECT_LT(maxerr_ba, 0.1);
+  validate_map(r.AB.map, A.num_vertices(), B.num_faces(), 3, "AB");
+}
+
+TEST(Bim, AutomaticFeaturesOnRotatedEllipsoid) {
+  // Without landmarks: AGD maxima at the ends of the axes; the rotation (or one of the
+  // ellipsoid's symmetries) must be found, all with full confidence.
+  TriMesh A = make_ellipsoid(1500, Eigen::Vector3d(1.0, 0.6, 0.35));
+  TriMesh B = A;
+  Eigen::Matrix3d R = test_rotation();
+  B.V = A.V * R.transpose();
+  BIMOptions o;
+  BIMResult r = blended_intrinsic_maps(A, B, o);
+  EXPECT_GE(r.features_A.size(), 3u);
+  EXPECT_GT(r.AB.num_candidates, 0);
+  std::printf("ellipsoid: %zu features, %d candidates, integrated confidence %.4f\n", r.features_A.size(),
+              r.AB.num_candidates, r.AB.integrated_confidence);
+  EXPECT_GT(r.AB.integrated_confidence, 0.9);
+}
+
+TEST(Bim, TorusIsRejectedNamingGenus) {
+  TriMesh T = make_torus(1000);
+  TriMesh S = make_sphere(1000);
+  BIMOptions o;
+  o.name_A = "torus.obj";
+  try {
+    blended_intrinsic_maps(T, S, o);
+    FAIL() << "no exception";
+  } catch (const InputError& e) {
+    std::string msg = e.what();
+    EXPECT_NE(msg.find("torus.obj"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("genus 1"), std::string::npos) << msg;
+  }
+}
+
+TEST(Bim, Deterministic) {
+  TriMesh A = make_ellipsoid(800, Eigen::Vector3d(1.0, 0.6, 0.35));
+  TriMesh B = make_ellipsoid(900, Eigen::Vector3d(1.1, 0.5, 0.4));
+  BIMOptions o;
+  BIMResult r1 = blended_intrinsic_maps(A, B, o);
+  BIMResult r2 = blended_intrinsic_maps(A, B, o);
+  EXPECT_EQ(r1.AB.map.elem, r2.AB.map.elem);
+  EXPECT_EQ((r1.AB.map.bary - r2.AB.map.bary).norm(), 0.0);
+}

@@ -1,0 +1,97 @@
+// Benchmarks of elastic correspondence (disabled by default; bench/elastic.sh runs them):
+//  - Speed: a ~5,000-vertex generated pair, full bijective run (Algorithm 1, K <= 300),
+//    time per outer iteration split between projection and deformation steps.
+//  - Quality: >= 10 seeds of generated non-isometric pairs, BIM initialization (both
+//    directions) vs the elastic refinement: mean conformal distortion, mean area
+//    distortion, mean curvature error, geodesic error against the ground truth.
+// Environment: SHAPEMAP_ELASTIC_SEEDS (default 10), SHAPEMAP_ELASTIC_VERTICES (quality
+// pairs, default 2000), SHAPEMAP_ELASTIC_SPEED_VERTICES (default 5000).
+#include "shapemap/eval/surface_distortion.h"
+#include "shapemap/eval/surface_metrics.h"
+#include "shapemap/generate.h"
+#include "shapemap/surface/bim.h"
+#include "shapemap/surface/elastic.h"
+
+#include <gtest/gtest.h>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+
+using namespace shapemap;
+
+namespace {
+int env_int(const char* name, int def) {
+  const char* v = std::getenv(name);
+  return v ? std::atoi(v) : def;
+}
+double now() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+}  // namespace
+
+TEST(ElasticBench, DISABLED_Speed5k) {
+  const int nv = env_int("SHAPEMAP_ELASTIC_SPEED_VERTICES", 5000);
+  GeneratedPair pair = make_creature_pair(1, PairKind::NonIsometric, nv);
+  BIMOptions bo;
+  bo.symmetric = true;
+  double t0 = now();
+  BIMResult bim = blended_intrinsic_maps(pair.A, pair.B, bo);
+  const double t_bim = now() - t0;
+  ElasticOptions o;
+  t0 = now();
+  ElasticResult r = elastic_correspondence(pair.A, pair.B, bim.AB.map, bim.BA.map, o);
+  const double t_el = now() - t0;
+  const int K = std::max(1, r.outer_iterations);
+  std::printf("elastic speed: A %d vertices, B %d vertices, BIM %.2f s, elastic %.2f s "
+              "(setup %.3f s, %d outer iterations, converged %d)\n",
+              pair.A.num_vertices(), pair.B.num_vertices(), t_bim, t_el, r.time_setup,
+              r.outer_iterations, int(r.converged));
+  std::printf("  per outer iteration: %.4f s = projection %.4f s + deformation %.4f s\n",
+              (r.time_projection + r.time_deformation) / K, r.time_projection / K,
+              r.time_deformation / K);
+  int inner = 0;
+  for (auto& it : r.history) inner += it.inner_iterations;
+  std::printf("  L-BFGS iterations per outer iteration (Y and Y~ steps): %.1f\n", double(inner) / K);
+  EXPECT_TRUE(r.Y.allFinite());
+}
+
+TEST(ElasticBench, DISABLED_QualityVsBim) {
+  const int seeds = env_int("SHAPEMAP_ELASTIC_SEEDS", 10);
+  const int nv = env_int("SHAPEMAP_ELASTIC_VERTICES", 2000);
+  int better_conf = 0, better_area = 0, better_curv = 0, geo_not_worse = 0;
+  double geo0_sum = 0, geo1_sum = 0;
+  std::printf("%4s %6s %6s | %8s %8s | %8s %8s | %8s %8s | %8s %8s | %6s %6s | %6s\n", "seed", "nA",
+              "nB", "conf0", "conf1", "area0", "area1", "curv0", "curv1", "geo0", "geo1", "flip0",
+              "flip1", "time");
+  for (int s = 1; s <= seeds; ++s) {
+    GeneratedPair pair = make_creature_pair(s, PairKind::NonIsometric, nv);
+    BIMOptions bo;
+    bo.symmetric = true;
+    bo.seed = s;
+    BIMResult bim = blended_intrinsic_maps(pair.A, pair.B, bo);
+    const double t0 = now();
+    ElasticResult r = elastic_correspondence(pair.A, pair.B, bim.AB.map, bim.BA.map, ElasticOptions{});
+    const double t = now() - t0;
+    const SurfaceDistortion d0 = surface_distortion(pair.A, pair.B, bim.AB.map);
+    const SurfaceDistortion d1 = surface_distortion(pair.A, pair.B, r.map_AB);
+    SurfaceErrorOptions eo;
+    eo.max_points = 500;
+    const double g0 = surface_map_error(bim.AB.map, pair.truth_AB, pair.B.V, pair.B.F, eo).mean;
+    const double g1 = surface_map_error(r.map_AB, pair.truth_AB, pair.B.V, pair.B.F, eo).mean;
+    better_conf += d1.conformal_mean < d0.conformal_mean;
+    better_area += d1.area_mean_abs < d0.area_mean_abs;
+    better_curv += d1.mean_curvature_error < d0.mean_curvature_error;
+    geo_not_worse += g1 <= g0 * 1.01;
+    geo0_sum += g0;
+    geo1_sum += g1;
+    std::printf("%4d %6d %6d | %8.4f %8.4f | %8.4f %8.4f | %8.4f %8.4f | %8.4f %8.4f | %6d %6d | %6.1f\n",
+                s, pair.A.num_vertices(), pair.B.num_vertices(), d0.conformal_mean,
+                d1.conformal_mean, d0.area_mean_abs, d1.area_mean_abs, d0.mean_curvature_error,
+                d1.mean_curvature_error, g0, g1, d0.flipped, d1.flipped, t);
+    std::fflush(stdout);
+  }
+  std::printf("refined beats BIM on: conformal %d/%d, area %d/%d, mean curvature %d/%d; "
+              "geodesic error not worse (1%%) %d/%d; mean geodesic error %.4f -> %.4f\n",
+              better_conf, seeds, better_area, seeds, better_curv, seeds, geo_not_worse, seeds,
+              geo0_sum / seeds, geo1_sum / seeds);
+}

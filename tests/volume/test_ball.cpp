@@ -1,0 +1,191 @@
+// Ball-shaped volume-preserving parameterization (isovolumetric-ball-parameterization.txt,
+// Algorithm 1, Eq. 10) and its metrics (Eq. 45).
+#include "ball_test_mesh.h"
+#include "shapemap/error.h"
+#include "shapemap/eval/ball_metrics.h"
+#include "shapemap/volume/ball_param.h"
+#include "shapemap/volume/sphere_param.h"
+#include <gtest/gtest.h>
+#include <omp.h>
+#include <cmath>
+#include <numeric>
+#include <random>
+
+using namespace shapemap;
+using namespace shapemap::testing_ball;
+
+namespace {
+
+// Splits the vertices of a mesh into interior and boundary index lists.
+void split(const TetMesh& m, Eigen::VectorXi& interior, Eigen::VectorXi& boundary) {
+  const TetBoundary tb = boundary_surface(m);
+  boundary = tb.to_volume;
+  std::vector<int> I;
+  for (int i = 0; i < m.num_vertices(); ++i)
+    if (tb.to_surface(i) < 0) I.push_back(i);
+  interior = Eigen::Map<Eigen::VectorXi>(I.data(), Eigen::Index(I.size()));
+}
+
+}  // namespace
+
+TEST(BallParam, SphericalGradientMatchesFiniteDifferences) {
+  const TetMesh m = blob_tets(3, Eigen::Vector3d(1.0, 0.8, 0.7), 0.1);
+  const IsovolumetricEnergy E(m.V, m.T);
+  Eigen::VectorXi I, B;
+  split(m, I, B);
+  ASSERT_GT(I.size(), 0);
+  SphericalBallEnergy sbe(E, I, B);
+  // A point with the boundary on the sphere and a perturbed interior.
+  Eigen::MatrixXd f = m.V;
+  for (int k = 0; k < B.size(); ++k) f.row(B(k)).normalize();
+  for (int k = 0; k < I.size(); ++k) f.row(I(k)) *= 0.8;
+  std::mt19937 rng(7);
+  std::normal_distribution<double> N(0.0, 1.0);
+  for (int frame = 0; frame < 2; ++frame) {
+    if (frame == 1) {
+      Eigen::Matrix3d Q = Eigen::AngleAxisd(0.9, Eigen::Vector3d(1, -1, 2).normalized()).toRotationMatrix();
+      sbe.set_frame(Q);
+    }
+    Eigen::VectorXd x = sbe.from_map(f);
+    for (int i = 0; i < x.size(); ++i) x(i) += 0.02 * N(rng);
+    Eigen::VectorXd g;
+    const double e0 = sbe.energy_and_gradient(x, g);
+    EXPECT_NEAR(e0, sbe.energy(x), 1e-14);
+    const double h = 1e-6;
+    double err = 0, gmax = 0;
+    // Every variable: f_I blocks, theta and phi (Eqs. 10a-10c).
+    for (int i = 0; i < x.size(); ++i) {
+      Eigen::VectorXd xp = x, xm = x;
+      xp(i) += h;
+      xm(i) -= h;
+      const double fd = (sbe.energy(xp) - sbe.energy(xm)) / (2 * h);
+      err = std::max(err, std::abs(fd - g(i)));
+      gmax = std::max(gmax, std::abs(g(i)));
+    }
+    EXPECT_LT(err, 1e-7 * std::max(1.0, gmax)) << "frame " << frame;
+    // Round trip x -> f -> x keeps the map (angles may differ by 2 pi).
+    Eigen::MatrixXd f1, f2;
+    sbe.to_map(x, f1);
+    sbe.to_map(sbe.from_map(f1), f2);
+    EXPECT_LT((f1 - f2).cwiseAbs().maxCoeff(), 1e-12);
+  }
+}
+
+TEST(BallParam, PoleAvoidingFrameKeepsPolesEmpty) {
+  const TetMesh m = blob_tets(6, Eigen::Vector3d(1, 1, 1), 0.0);
+  const TetBoundary tb = boundary_surface(m);
+  Eigen::MatrixXd Y = tb.surface.V.rowwise().normalized();
+  const Eigen::Matrix3d Q = pole_avoiding_frame(Y, tb.surface.F);
+  EXPECT_NEAR(Q.determinant(), 1.0, 1e-12);
+  EXPECT_LT((Q * Q.transpose() - Eigen::Matrix3d::Identity()).norm(), 1e-12);
+  const Eigen::Vector3d pole = Q.row(2).transpose();
+  double smin = 1;
+  for (int b = 0; b < Y.rows(); ++b)
+    smin = std::min(smin, std::sqrt(std::max(0.0, 1 - std::pow(pole.dot(Y.row(b).transpose()), 2))));
+  // The cube-sphere grid has vertices exactly at +-z; the chosen poles avoid all vertices
+  // by a sizeable fraction of the mean edge angle (2/6 of a quarter circle ~ 0.26 rad).
+  EXPECT_GT(smin, 0.05);
+}
+
+TEST(BallParam, SphericalAreaPreservingMapIsBijectiveAndEquiareal) {
+  const TetMesh m = blob_tets(8, Eigen::Vector3d(1.0, 0.7, 0.5), 0.15);
+  const TriMesh s = boundary_surface(m).surface;
+  const SphereParamResult r = spherical_area_preserving_map(s);
+  EXPECT_EQ(r.folded_faces, 0);
+  EXPECT_LT((r.S.rowwise().norm().array() - 1.0).abs().maxCoeff(), 1e-12);
+  EXPECT_GT(r.conformal_iterations + r.stretch_iterations, 0);
+  EXPECT_LT(r.stretch_energy, r.stretch_energy_initial);
+  // Area shares: the mean relative deviation of the image area shares is small.
+  const Eigen::VectorXd a = triangle_areas(s.V, s.F), b = triangle_areas(r.S, s.F);
+  double dev = 0;
+  for (int f = 0; f < a.size(); ++f) dev += std::abs((b(f) / b.sum()) / (a(f) / a.sum()) - 1.0);
+  dev /= double(a.size());
+  EXPECT_LT(dev, 0.15);  // measured ~0.04 on this mesh
+}
+
+TEST(BallParam, EndToEndOnGeneratedBlob) {
+  const TetMesh m = blob_tets(10, Eigen::Vector3d(1.0, 0.7, 0.5), 0.15);  // 1331 v, 6000 t
+  const BallParamResult r = ball_parameterization(m);
+  const BallMetrics b = ball_metrics(m, r.f);
+  const BallMetrics v = ball_metrics(m, r.f_vsem);
+  EXPECT_EQ(b.folded_tets, 0);
+  EXPECT_EQ(b.negative_tets, 0);
+  EXPECT_LE(b.boundary_sphere_error, 1e-9);
+  EXPECT_LE(b.max_radius, 1.0 + 1e-9);
+  // Measured: mean D_V 3.0e-3 after CG (VSEM: 1.6e-2); E_I 5.5e-5 (VSEM: 1.2e-3).
+  EXPECT_LT(b.dv_mean, 1e-2);
+  EXPECT_LT(b.dv_p95, 3e-2);
+  EXPECT_NEAR(r.energy_vsem, v.energy, 1e-9 * std::max(1.0, v.energy));
+  EXPECT_NEAR(r.energy_final, b.energy, 1e-9);
+  EXPECT_LE(r.energy_final, 0.5 * r.energy_vsem);
+  EXPECT_LT(b.dv_mean, v.dv_mean);
+  EXPECT_GT(r.iterations, 0);
+  EXPECT_EQ(int(r.energies.size()), r.iterations);
+  for (size_t k = 1; k < r.energies.size(); ++k) EXPECT_LE(r.energies[k], r.energies[k - 1]);
+}
+
+TEST(BallParam, DeterministicAcrossThreadCounts) {
+  const TetMesh m = blob_tets(6, Eigen::Vector3d(1.0, 0.8, 0.6), 0.2);
+  BallParamOptions o;
+  o.max_iterations = 40;
+  const int saved = omp_get_max_threads();
+  omp_set_num_threads(1);
+  const BallParamResult a = ball_parameterization(m, o);
+  omp_set_num_threads(2);
+  const BallParamResult b = ball_parameterization(m, o);
+  omp_set_num_threads(saved);
+  EXPECT_EQ(a.iterations, b.iterations);
+  EXPECT_EQ((a.f - b.f).cwiseAbs().maxCoeff(), 0.0);
+}
+
+TEST(BallParam, PaperVariantWithoutPoleHandlingStillRuns) {
+  const TetMesh m = blob_tets(6, Eigen::Vector3d(1.0, 0.8, 0.6), 0.1);
+  BallParamOptions o;
+  o.rotate_frame = false;
+  o.metric_phi_preconditioner = false;
+  o.anisotropic_scaling = false;
+  const BallParamResult r = ball_parameterization(m, o);
+  const BallMetrics b = ball_metrics(m, r.f);
+  EXPECT_LE(b.boundary_sphere_error, 1e-9);
+  EXPECT_LE(r.energy_final, r.energy_vsem);
+}
+
+TEST(BallParam, RejectsNonBallInput) {
+  for (int which = 0; which < 2; ++which) {
+    const TetMesh m = which == 0 ? two_cubes(2) : hollow_cube(4);
+    try {
+      ball_parameterization(m, {}, {}, "blob.vtk");
+      ADD_FAILURE() << "no InputError for case " << which;
+    } catch (const InputError& e) {
+      const std::string msg = e.what();
+      EXPECT_EQ(msg.rfind("blob.vtk: ", 0), 0u) << msg;
+      EXPECT_EQ(msg.find('\n'), std::string::npos);
+    }
+  }
+}
+
+TEST(BallMetricsTest, DistortionFoldsAndSphereError) {
+  const TetMesh m = blob_tets(3, Eigen::Vector3d(1.0, 0.9, 0.8), 0.0);
+  // A uniform scaling is volume-preserving: D_V = 0 everywhere, E_I = 0.
+  const BallMetrics s = ball_metrics(m, 0.5 * m.V);
+  EXPECT_LT(s.dv_max, 1e-12);
+  EXPECT_NEAR(s.energy, 0.0, 1e-12);
+  EXPECT_EQ(s.folded_tets, 0);
+  // A mirror flips every tet: the smaller count (positive) is 0 foldings.
+  Eigen::MatrixXd mir = m.V;
+  mir.col(0) *= -1;
+  const BallMetrics r = ball_metrics(m, mir);
+  EXPECT_EQ(r.negative_tets, m.num_tets());
+  EXPECT_EQ(r.folded_tets, 0);
+  // One vertex moved: D_V from its definition (Eq. 45).
+  Eigen::MatrixXd f = m.V;
+  f(0, 0) += 0.05;
+  const Eigen::VectorXd D = ball_volume_distortion(m.V, m.T, f);
+  const Eigen::VectorXd ve = tet_volumes(m.V, m.T), vf = tet_volumes(f, m.T);
+  for (int t = 0; t < D.size(); ++t) {
+    const double a = ve(t) / ve.sum();
+    EXPECT_NEAR(D(t), std::abs((vf(t) / vf.sum() - a) / a), 1e-12);
+  }
+  // Boundary vertices of the cube-sphere blob with radii ~1 are off the sphere.
+  EXPECT_GT(s.boundary_sphere_error, 0.1);
+}

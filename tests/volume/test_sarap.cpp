@@ -1,0 +1,116 @@
+// ARAP distortion with signed singular values (symmetric-volume-maps Eqs. 19, 20, 26):
+// rotations cost nothing, the signed-SVD convention, and finite-difference gradients
+// including inverted and flat tets.
+#include "shapemap/geometry/svd3.h"
+#include "shapemap/volume/sarap.h"
+#include "volume_test_util.h"
+#include <Eigen/Dense>
+#include <Eigen/Geometry>
+#include <gtest/gtest.h>
+#include <random>
+
+using namespace shapemap;
+using shapemap::test_volume::grid_box;
+
+namespace {
+Eigen::Matrix3d random_rotation(std::mt19937& rng) {
+  std::normal_distribution<double> n(0, 1);
+  Eigen::Quaterniond q(n(rng), n(rng), n(rng), n(rng));
+  return q.normalized().toRotationMatrix();
+}
+
+// Brute-force min over SO(3) of ||J - R||_F^2 by a dense sweep plus local refinement.
+double min_over_rotations(const Eigen::Matrix3d& J) {
+  // Closest rotation: polar factor with a sign fix = U diag(1,1,det(UV^T)) V^T.
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(J, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d U = svd.matrixU(), V = svd.matrixV();
+  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+  D(2, 2) = (U * V.transpose()).determinant() > 0 ? 1 : -1;
+  return (J - U * D * V.transpose()).squaredNorm();
+}
+}  // namespace
+
+TEST(Sarap, ZeroForRotationsAndTranslations) {
+  TetMesh m = grid_box(3, 2, 2, 1.0, 0.7, 0.5);
+  ArapEnergy e(m.V, m.T);
+  std::mt19937 rng(3);
+  for (int trial = 0; trial < 5; ++trial) {
+    Eigen::Matrix3d R = random_rotation(rng);
+    Eigen::RowVector3d t(0.3 * trial, -1.0, 2.0);
+    Eigen::MatrixXd X = (m.V * R.transpose()).rowwise() + t;
+    Eigen::MatrixXd G;
+    double E = e.energy(X, &G);
+    EXPECT_NEAR(E, 0.0, 1e-20 + 1e-12);
+    EXPECT_LT(G.cwiseAbs().maxCoeff(), 1e-9);
+  }
+  // A uniform scaling by s costs 3 (s-1)^2 per unit weight; weights sum to 1/2 (Eq. 20).
+  EXPECT_NEAR(e.weights().sum(), 0.5, 1e-12);
+  EXPECT_NEAR(e.energy(1.5 * m.V), 0.5 * 3 * 0.25, 1e-10);
+}
+
+TEST(Sarap, SignedSingularValueConvention) {
+  // A reflection is not a rotation: the signed convention gives sigma = (1,1,-1), f = 4,
+  // whereas unsigned singular values would give 0.
+  Eigen::Matrix3d Refl = Eigen::Vector3d(1, 1, -1).asDiagonal();
+  EXPECT_NEAR(arap_distortion(Refl), 4.0, 1e-12);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-2, 2);
+  for (int trial = 0; trial < 200; ++trial) {
+    Eigen::Matrix3d J;
+    for (int i = 0; i < 9; ++i) J(i) = u(rng);
+    SignedSVD3 s = signed_svd3(J);
+    EXPECT_NEAR(s.U.determinant(), 1.0, 1e-9);
+    EXPECT_NEAR(s.V.determinant(), 1.0, 1e-9);
+    EXPECT_GE(s.S(0), s.S(1) - 1e-12);
+    EXPECT_GE(s.S(1), std::abs(s.S(2)) - 1e-12);
+    if (J.determinant() < 0) EXPECT_LT(s.S(2), 0);
+    EXPECT_LT((s.U * s.S.asDiagonal() * s.V.transpose() - J).norm(), 1e-9);
+    // Eq. 19 with signed values equals the distance to SO(3).
+    EXPECT_NEAR(arap_distortion(J), min_over_rotations(J), 1e-9);
+  }
+}
+
+TEST(Sarap, GradientMatchesFiniteDifferencesWithInvertedTets) {
+  TetMesh m = grid_box(2, 2, 2, 1.0, 1.0, 1.0);
+  ArapEnergy e(m.V, m.T);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-0.4, 0.4);
+  Eigen::MatrixXd X = m.V;
+  for (int i = 0; i < X.size(); ++i) X(i) += u(rng);
+  // Flip a few tets: move one vertex through the opposite face.
+  X.row(m.T(0, 0)) = X.row(m.T(0, 1)) + 1.2 * (X.row(m.T(0, 1)) - X.row(m.T(0, 0)));
+  Eigen::VectorXd det = e.determinants(X);
+  int inverted = 0;
+  for (int k = 0; k < det.size(); ++k) inverted += det(k) <= 0;
+  ASSERT_GT(inverted, 0);
+  Eigen::MatrixXd G;
+  e.energy(X, &G);
+  const double h = 1e-6;
+  double maxerr = 0, maxg = 0;
+  for (int i = 0; i < X.rows(); ++i)
+    for (int d = 0; d < 3; ++d) {
+      Eigen::MatrixXd Xp = X, Xm = X;
+      Xp(i, d) += h;
+      Xm(i, d) -= h;
+      double fd = (e.energy(Xp) - e.energy(Xm)) / (2 * h);
+      maxerr = std::max(maxerr, std::abs(fd - G(i, d)));
+      maxg = std::max(maxg, std::abs(G(i, d)));
+    }
+  EXPECT_LT(maxerr, 1e-6 * std::max(1.0, maxg));
+  // Restricted evaluation: same gradient on the vertices of the listed tets' interiors.
+  std::vector<int> all(m.T.rows());
+  for (int k = 0; k < int(all.size()); ++k) all[k] = k;
+  Eigen::MatrixXd G2;
+  EXPECT_NEAR(e.energy(X, all, &G2), e.energy(X), 1e-12);
+  EXPECT_LT((G2 - G).cwiseAbs().maxCoeff(), 1e-12);
+}
+
+TEST(Sarap, FlatTetsHaveFiniteEnergyAndGradient) {
+  TetMesh m = grid_box(1, 1, 1, 1.0, 1.0, 1.0);
+  ArapEnergy e(m.V, m.T);
+  Eigen::MatrixXd X = Eigen::MatrixXd::Zero(m.V.rows(), 3);  // everything collapsed
+  Eigen::MatrixXd G;
+  double E = e.energy(X, &G);
+  EXPECT_NEAR(E, 0.5 * 3.0, 1e-12);  // sigma = 0: f = 3 per tet, weights sum to 1/2
+  EXPECT_TRUE(G.allFinite());
+}
