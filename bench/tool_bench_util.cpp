@@ -302,7 +302,7 @@ int cmd_collect(const std::vector<std::string>& a) {
     const json ev = read_json_file(s.value("evaluation", std::string()));
     if (s.contains("evaluation_exit_code")) {
       r["evaluation_exit_code"] = s["evaluation_exit_code"];
-      r["evaluation_seconds"] = s.value("evaluation_seconds", 0.0);
+      r["evaluation_seconds"] = s.contains("evaluation_seconds") ? s["evaluation_seconds"] : json();
     }
     r["metrics"] = code == 0 ? metrics_of(method, rep, ev) : json::object();
     if (code == 0 && rep.is_object() && rep.contains("timings")) r["stage_seconds"] = rep["timings"];

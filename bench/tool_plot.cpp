@@ -88,7 +88,11 @@ void cross(Image& img, int cx, int cy, int r, const Color& c) {
 
 std::string number_label(double v) {
   char buf[32];
-  if (v >= 1e4 || v < 1e-2)
+  if (v >= 1e6)
+    std::snprintf(buf, sizeof buf, "%gM", std::round(v / 1e5) / 10);
+  else if (v >= 1e3)
+    std::snprintf(buf, sizeof buf, "%gk", std::round(v / 1e2) / 10);
+  else if (v < 1e-2)
     std::snprintf(buf, sizeof buf, "%.0e", v);
   else if (v >= 1)
     std::snprintf(buf, sizeof buf, "%g", v);
@@ -125,7 +129,7 @@ void log_range(double vmin, double vmax, double& lo, double& hi) {
 Image panel(const std::vector<Series>& series, const std::string& title, const std::string& xlabel,
             const std::map<std::string, Color>& colors) {
   const int W = 620, H = 500;
-  const int L = 78, R = 20, T = 40, B = 64;  // plot area margins
+  const int L = 78, R = 34, T = 40, B = 64;  // plot area margins
   Image img(W, H, Color(1, 1, 1));
   const Color black(0, 0, 0), grid(0.88f, 0.88f, 0.88f), grid_major(0.75f, 0.75f, 0.75f);
   double xmin = INFINITY, xmax = 0, tmin = INFINITY, tmax = 0;
@@ -144,6 +148,10 @@ Image panel(const std::vector<Series>& series, const std::string& title, const s
   log_range(xmin, xmax, x0, x1);
   log_range(tmin, tmax, y0, y1);
   const int pw = W - L - R, ph = H - T - B;
+  {  // Headroom above the data for the legend.
+    const double frac = std::min(0.6, (20.0 * series.size() + 30.0) / ph);
+    y1 = y0 + (std::log10(tmax) - y0) / (1 - frac);
+  }
   auto X = [&](double v) { return L + (std::log10(v) - x0) / (x1 - x0) * pw; };
   auto Y = [&](double v) { return T + ph - (std::log10(v) - y0) / (y1 - y0) * ph; };
   // Grid and ticks: every m * 10^d inside the range; labels on 1, 2, 5 (on 1 only when
@@ -199,8 +207,6 @@ Image panel(const std::vector<Series>& series, const std::string& title, const s
     }
     for (size_t i = 1; i < ok.size(); ++i) line(img, X(ok[i - 1].x), Y(ok[i - 1].t), X(ok[i].x), Y(ok[i].t), c, 2);
     for (auto& p : ok) disc(img, int(std::lround(X(p.x))), int(std::lround(Y(p.t))), 4, c);
-    for (auto& p : s.points)
-      if (!p.ok && p.x > 0) cross(img, int(std::lround(X(p.x))), T + 6, 5, c);
   }
   // Legend (top left inside the plot).
   int ly = T + 10;
@@ -229,6 +235,10 @@ Image panel(const std::vector<Series>& series, const std::string& title, const s
     ly += 20;
   }
   shapemap::draw_text(img, lx, ly + 2, "fit: t ~ n^k (least squares, log-log)", Color(0.3f, 0.3f, 0.3f), 1);
+  // Failed runs: crosses on the top edge at their size (over the legend if need be).
+  for (auto& s : series)
+    for (auto& p : s.points)
+      if (!p.ok && p.x > 0) cross(img, int(std::lround(X(p.x))), T + 6, 5, colors.at(s.method));
   return img;
 }
 

@@ -36,6 +36,10 @@ struct GeneratedPair {
   Deformation deformation;     // A-space -> B-space
 };
 
+// B is CGAL Mesh_3 surface remeshing (polyhedral domain of deform(A), facet criteria
+// only, manifold) at a size for about target_vertices: its vertices lie on deform(A)
+// (so truth_BA is exact to round-off) and truth_AB is within the remeshing error
+// (facet distance, ~0.15% of the bounding-box diagonal). Deterministic for a seed.
 GeneratedPair make_creature_pair(std::uint64_t seed, PairKind kind, int target_vertices);
 
 }  // namespace shapemap

@@ -200,7 +200,11 @@ int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bij
   lo.f_decrease_tol = opt.inner_f_tol;
   lo.wolfe = false;  // Armijo backtracking (Sec. 5.1)
   Objective f = [&obj](const Eigen::VectorXd& y, Eigen::VectorXd& g) { return obj(y, g); };
+  // Admissible edges fixed for this inner solve (continuous energy along line searches),
+  // recomputed at the start of every Y step (docs/methods.md).
+  s.shell.freeze_mask(x.data());
   LbfgsResult r = lbfgs_minimize(f, x, lo);
+  s.shell.unfreeze_mask();
   Eigen::VectorXd g(3 * n);
   double E = obj(x, g, &parts);
   if (!x.allFinite() || !std::isfinite(E)) {  // never hand on NaN: keep the previous Y

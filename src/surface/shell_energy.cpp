@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <tuple>
 
 namespace shapemap {
@@ -186,13 +187,19 @@ double ShellEnergy::evaluate(const double* y, double* grad, ShellEnergyTerms* te
 #pragma omp parallel for schedule(static) if (k > kParallelMin)
     for (int e = 0; e < k; ++e) {
       const int f0 = E_(e, 0), f1 = E_(e, 1);
-      if (fdeg_[f0] || fdeg_[f1]) {
+      const bool adm = frozen_ ? frozen_adm_[e] != 0 : !(fdeg_[f0] || fdeg_[f1]);
+      const double l0 = fNlen_(f0), l1 = fNlen_(f1);
+      if (!adm) {
         eadm_[e] = 0;
         eenergy_(e) = 0;
         continue;
       }
       eadm_[e] = 1;
-      const double l0 = fNlen_(f0), l1 = fNlen_(f1);
+      if (!(l0 > 0) || !(l1 > 0)) {  // frozen-admissible but collapsed: reject the point
+        eenergy_(e) = std::numeric_limits<double>::infinity();
+        if (want_grad) egN_.row(e).setZero();
+        continue;
+      }
       const V3 n0 = fN_.row(f0).transpose() / l0, n1 = fN_.row(f1).transpose() / l1;
       const double c = n0.dot(n1);
       const double delta = cos_ref_(e) - c;
@@ -265,6 +272,20 @@ double ShellEnergy::evaluate(const double* y, double* grad, ShellEnergyTerms* te
     terms->degenerate_faces = deg;
   }
   return total;
+}
+
+void ShellEnergy::freeze_mask(const double* y) {
+  const int m = int(F_.rows()), k = int(E_.rows());
+  frozen_ = false;
+  std::vector<char> deg(m);
+  for (int f = 0; f < m; ++f) {
+    const V3 x0 = row3(y, F_(f, 0)), x1 = row3(y, F_(f, 1)), x2 = row3(y, F_(f, 2));
+    const double Nlen = (x1 - x0).cross(x2 - x0).norm();
+    deg[f] = !(Nlen > opt_.degenerate_tol * nref_(f)) || nref_(f) == 0;
+  }
+  frozen_adm_.assign(k, 0);
+  for (int e = 0; e < k; ++e) frozen_adm_[e] = !(deg[E_(e, 0)] || deg[E_(e, 1)]);
+  frozen_ = true;
 }
 
 double ShellEnergy::evaluate(const Eigen::MatrixXd& Y, Eigen::MatrixXd* G,

@@ -92,7 +92,7 @@ SphereLocator::Location SphereLocator::locate(const Eigen::Vector3d& x, int star
                                               int* steps) const {
   int s1 = 0, s2 = 0;
   if (start_face >= 0 && start_face < F_.rows()) {
-    Location r = walk(x, start_face, 16, &s1);
+    Location r = walk(x, start_face, 6, &s1);
     if (r.face >= 0) {
       if (steps) *steps = s1;
       return r;

@@ -2,6 +2,7 @@
 #include "shapemap/volume/register.h"
 #include "shapemap/error.h"
 #include "shapemap/geometry/closest_point.h"
+#include <Eigen/LU>
 #include <Eigen/SVD>
 #include <chrono>
 #include <cmath>

@@ -5,6 +5,7 @@
 #include "shapemap/geometry/laplacian.h"
 #include "shapemap/geometry/sparse_cholesky.h"
 #include <Eigen/Geometry>
+#include <Eigen/LU>
 #include <Eigen/SVD>
 #include <chrono>
 #include <cmath>

@@ -69,8 +69,8 @@ TEST(Tetrahedralize, TargetCountsAndEdgeLength) {
   }
   // An edge length gives the same mesh as the tet count it corresponds to.
   TetrahedralizeOptions a, b;
-  a.edge_length = 0.1;
-  b.edge_length = 0.05;
+  a.edge_length = 0.16;
+  b.edge_length = 0.08;
   TetMesh ta = tetrahedralize(s, a), tb = tetrahedralize(s, b);
   EXPECT_GT(double(tb.num_tets()) / ta.num_tets(), 4.0);  // 8 in the limit
   expect_valid_ball(tb);

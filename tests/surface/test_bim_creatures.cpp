@@ -53,12 +53,12 @@ int env_int(const char* name, int def) {
 }  // namespace
 
 TEST(BimCreatures, NearIsometricPair) {
-  Outcome o = run_pair(1, PairKind::NearIsometric, 2000);
+  Outcome o = run_pair(1, PairKind::NearIsometric, 1500);
   EXPECT_GE(o.within, 0.90);
 }
 
 TEST(BimCreatures, NonIsometricPair) {
-  Outcome o = run_pair(2, PairKind::NonIsometric, 2000);
+  Outcome o = run_pair(2, PairKind::NonIsometric, 1500);
   EXPECT_GE(o.within, 0.75);
 }
 

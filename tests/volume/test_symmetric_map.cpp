@@ -192,8 +192,6 @@ TEST(SymmetricVolumeMap, LandmarkPairQuality) {
   for (auto& s : e.r.stages) {
     std::printf("  stage %-15s it %3d  %.2fs  E %.5g  inv %d/%d  stop %s\n", s.name.c_str(),
                 s.iterations, s.seconds, s.energy, s.inverted12, s.inverted21, s.stop_reason.c_str());
-    for (size_t q = 0; q < s.energy_history.size(); ++q)
-      std::printf("    %zu E %.6g |g| %.3g\n", q, s.energy_history[q], s.gradient_history[q]);
   }
   for (const VolumeMapMetrics* m : {&m12, &m21}) {
     EXPECT_LE(m->n_inv, 3);

@@ -46,8 +46,9 @@ struct BIMOptions {
   double entry_fraction = 0.25;     // Sec. 6.2: "high entries (top 25%)": |w_i| >= 0.25 max |w|
   int num_eigenvectors = 8;         // how many top eigenpairs to compute (Spectra)
   int max_groups = 16;              // at most this many consistent groups are blended and compared
-  bool symmetrize_consistency = true;  // S_ij := (S_ij + S_ji)/2 (Eq. 5 is not symmetric)
-  double consistency_skip = 1e-3;   // skip P_even points where c_i c_j < this (their term is < this)
+  bool symmetrize_consistency = false; // true: S_ij := (S_ij + S_ji)/2 (Eq. 5 is not symmetric);
+                                    // false: Eq. 5 as written, evaluated for i < j
+  double consistency_skip = 0.02;   // skip P_even points where c_i c_j < this (their term is < this)
   // --- Sec. 7: blend and output
   bool symmetric = false;           // also the map B -> A
   // --- general

@@ -56,6 +56,12 @@ class ShellEnergy {
   double evaluate(const Eigen::MatrixXd& Y, Eigen::MatrixXd* G = nullptr,
                   ShellEnergyTerms* terms = nullptr) const;
 
+  // Freezes the admissible edge set at configuration y (3n values): until unfreeze_mask(),
+  // evaluations use this set instead of recomputing it, so the energy is continuous along
+  // a line search (Sec. 5.2 updates the set between quasi-Newton iterations, not within
+  // them). A frozen-admissible edge whose face collapses exactly makes the energy +inf.
+  void freeze_mask(const double* y);
+  void unfreeze_mask() { frozen_ = false; }
   void set_weights(double alpha, double eta) { opt_.alpha = alpha; opt_.eta = eta; }
   const ShellEnergyOptions& options() const { return opt_; }
   int num_vertices() const { return n_; }
@@ -88,6 +94,8 @@ class ShellEnergy {
   mutable Eigen::VectorXd eenergy_; // k bending energy per edge (weighted by l^2/d^)
   mutable Eigen::MatrixXd egN_;     // k×6 dE/dN for side 0 and side 1
   mutable std::vector<char> eadm_;  // k
+  bool frozen_ = false;
+  std::vector<char> frozen_adm_;    // k, admissible set of freeze_mask()
 };
 
 // Membrane density W of Eq. 7 with the linear extension, as a function of

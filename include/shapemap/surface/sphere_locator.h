@@ -28,7 +28,7 @@ class SphereLocator {
   SphereLocator(const Eigen::MatrixXd& S, const Eigen::MatrixXi& F) { build(S, F); }
   void build(const Eigen::MatrixXd& S, const Eigen::MatrixXi& F);
   // The face containing x (any length, direction used), walking from start_face for at
-  // most 16 steps, then from the face stored in a cube-map grid cell containing x
+  // most 6 steps, then from the face stored in a cube-map grid cell containing x
   // (start_face = -1: from the grid directly). steps (optional) receives the walk length.
   Location locate(const Eigen::Vector3d& x, int start_face = -1, int* steps = nullptr) const;
   // A face incident to vertex v (a good start for points near v).

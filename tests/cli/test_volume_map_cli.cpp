@@ -1,0 +1,75 @@
+// shapemap volume-map / evaluate volume: outputs of a small run, and bad input -> exit 2.
+#include "shapemap/io.h"
+#include "shapemap/maps.h"
+#include "volume/volume_test_util.h"
+#include <gtest/gtest.h>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <unistd.h>
+
+namespace fs = std::filesystem;
+using namespace shapemap;
+
+namespace {
+int run(const std::string& args) {
+  std::string cmd = std::string(SHAPEMAP_BINARY) + " -q " + args + " > /dev/null 2>&1";
+  int rc = std::system(cmd.c_str());
+  return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+}
+struct Files {
+  fs::path dir;
+  Files() {
+    dir = fs::temp_directory_path() / ("shapemap_volmap_cli_" + std::to_string(::getpid()));
+    fs::create_directories(dir);
+    TetMesh A = test_volume::grid_box(6, 4, 3, 1.0, 0.6, 0.45);
+    TetMesh B = test_volume::grid_box(5, 4, 4, 1.0, 0.6, 0.45);
+    for (int i = 0; i < B.V.rows(); ++i) B.V(i, 1) += 0.2 * B.V(i, 0) * B.V(i, 0);
+    write_volume((dir / "A.mesh").string(), A);
+    write_volume((dir / "B.vtk").string(), B);
+    auto corners = [](int nx, int ny, int nz) {
+      std::string s;
+      for (int k : {0, nz})
+        for (int j : {0, ny})
+          for (int i : {0, nx}) s += std::to_string((k * (ny + 1) + j) * (nx + 1) + i) + "\n";
+      return s;
+    };
+    std::ofstream(dir / "LA.txt") << corners(6, 4, 3);
+    std::ofstream(dir / "LB.txt") << corners(5, 4, 4);
+    std::ofstream(dir / "LB_short.txt") << "0\n1\n";
+    std::string lb = corners(5, 4, 4);
+    lb = lb.substr(0, lb.rfind('\n', lb.size() - 2) + 1) + "100000\n";  // 7 valid + 1 out of range
+    std::ofstream(dir / "LB_bad.txt") << lb;
+  }
+  ~Files() { fs::remove_all(dir); }
+  std::string p(const std::string& f) const { return (dir / f).string(); }
+};
+}  // namespace
+
+TEST(VolumeMapCli, LandmarkRunWritesAllOutputsAndEvaluates) {
+  Files f;
+  ASSERT_EQ(run("volume-map " + f.p("A.mesh") + " " + f.p("B.vtk") + " -o " + f.p("out") +
+                " --landmarks " + f.p("LA.txt") + " " + f.p("LB.txt") + " --max-iterations 10"),
+            0);
+  for (const char* name : {"map_AB.txt", "map_BA.txt", "A_on_B.vtk", "B_on_A.vtk", "report.json"})
+    EXPECT_TRUE(fs::exists(f.dir / "out" / name)) << name;
+  BarycentricMap m = read_map(f.p("out/map_AB.txt"));
+  EXPECT_EQ(m.size(), 7 * 5 * 4);
+  EXPECT_EQ(run("evaluate volume " + f.p("A.mesh") + " " + f.p("B.vtk") + " " + f.p("out/map_AB.txt") +
+                " --map-ba " + f.p("out/map_BA.txt") + " -o " + f.p("eval.json")),
+            0);
+  EXPECT_TRUE(fs::exists(f.dir / "eval.json"));
+}
+
+TEST(VolumeMapCli, BadInputExitsWithTwo) {
+  Files f;
+  const std::string AB = "volume-map " + f.p("A.mesh") + " " + f.p("B.vtk") + " -o " + f.p("bad");
+  EXPECT_EQ(run(AB + " --landmarks " + f.p("LA.txt") + " " + f.p("LB_short.txt")), 2);
+  EXPECT_EQ(run(AB + " --landmarks " + f.p("LA.txt") + " " + f.p("LB_bad.txt")), 2);
+  EXPECT_EQ(run(AB + " --init landmarks"), 2);
+  EXPECT_EQ(run("volume-map " + f.p("missing.mesh") + " " + f.p("B.vtk") + " -o " + f.p("bad") +
+                " --landmarks " + f.p("LA.txt") + " " + f.p("LB.txt")),
+            2);
+  EXPECT_FALSE(fs::exists(f.dir / "bad"));
+}
