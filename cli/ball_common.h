@@ -52,16 +52,25 @@ inline nlohmann::json ball_result_json(const BallParamResult& r) {
   j["iterations"] = r.iterations;
   j["converged"] = r.converged;
   j["quadratic_steps"] = r.quadratic_steps;
+  j["preconditioner_fallbacks"] = r.preconditioner_fallbacks;
   j["wolfe_steps"] = r.wolfe_steps;
   j["restarts"] = r.restarts;
   j["frame_rotations"] = r.frame_rotations;
   j["evaluations"] = r.evaluations;
   j["sphere_map_folded_faces"] = r.sphere_folded_faces;
   j["inverted_tets_after_vsem"] = r.inverted_vsem;
+  j["inverted_tets_after_cg"] = r.inverted_cg;
+  j["polish_iterations"] = r.polish_iterations;
+  j["E_I_after_cg"] = r.energy_cg;
+  j["inverted_tets_final"] = r.inverted_final;
+  j["preconditioner_refreshes"] = r.preconditioner_refreshes;
+  j["sphere_map_area_distortion"] = {{"mean", r.sphere_area_distortion_mean},
+                                     {"max", r.sphere_area_distortion_max}};
   j["seconds"] = {{"total", r.seconds_total},      {"sphere_map", r.seconds_sphere},
                   {"vsem", r.seconds_vsem},        {"preconditioner_factor", r.seconds_factor},
                   {"cg", r.seconds_cg},            {"cg_preconditioner_solves", r.seconds_cg_solve},
                   {"cg_energy_gradient", r.seconds_cg_eval},
+                  {"post_untangle_polish", r.seconds_post},
                   {"cg_per_iteration", r.iterations ? r.seconds_cg / r.iterations : 0.0},
                   {"cg_cpu", r.cpu_seconds_cg}};
   return j;

@@ -3,6 +3,7 @@
 // closed genus-0 surface that is tetrahedralized first. Writes OUT/ball.vtk (the input
 // connectivity with the ball coordinates, per-tet D_V) and OUT/report.json.
 #include "ball_common.h"
+#include "figures.h"
 
 namespace shapemap::cli {
 
@@ -51,8 +52,11 @@ Command register_ball(CLI::App& app, GlobalOptions& g) {
     j["metrics"] = ball_metrics_json(m);
     j["metrics_after_vsem"] = ball_metrics_json(mv);
     j["optimization"] = ball_result_json(r);
+    timer.start("pictures");
+    const auto figures = ball_figures(mesh, r.f);
+    timer.stop();
     j["timings"] = timer.json();
-    write_json(out.path("report.json"), j);
+    write_reports(out, j, "shapemap ball", figures);
     out.commit();
     info(g, "ball: " + std::to_string(mesh.num_vertices()) + " vertices, " + std::to_string(mesh.num_tets()) +
                 " tets; E_I " + std::to_string(r.energy_vsem) + " -> " + std::to_string(r.energy_final) +

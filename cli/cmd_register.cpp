@@ -4,6 +4,7 @@
 // connectivity at phi(v)), report.json (ball metrics of both, rotations, d(phi), volume-map
 // metrics) and, with --frames K, frames/frame_XXX.vtk of the linear homotopy (Eq. 46).
 #include "ball_common.h"
+#include "figures.h"
 #include "shapemap/eval/volume_metrics.h"
 #include "shapemap/maps.h"
 #include "shapemap/volume/register.h"
@@ -85,8 +86,13 @@ Command register_register(CLI::App& app, GlobalOptions& g) {
     j["vertices_outside_ball_mesh"] = r.outside;
     j["frames"] = int(r.frames.size());
     j["metrics"] = volume_metrics_json(vm);
+    timer.start("pictures");
+    auto figures = volume_map_figures(A, r.A_on_B, nullptr, nullptr);
+    for (auto& f : ball_figures(B, r.ball_B.f)) figures.push_back({"ball_B.png", "Ball of B: " + f.caption, f.image});
+    for (auto& f : ball_figures(A, r.ball_A.f)) figures.push_back({"ball_A.png", "Ball of A: " + f.caption, f.image});
+    timer.stop();
     j["timings"] = timer.json();
-    write_json(out.path("report.json"), j);
+    write_reports(out, j, "shapemap register --via ball", figures);
     out.commit();
     info(g, "register: d(phi) = " + std::to_string(r.d_phi) + " (" + std::to_string(100 * r.d_phi_relative) +
                 "% of A's bbox diagonal) -> " + out.final_path() + "/map_AB.txt");

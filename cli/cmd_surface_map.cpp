@@ -11,6 +11,7 @@
 #include "shapemap/io.h"
 #include "shapemap/maps.h"
 #include "shapemap/surface/bim.h"
+#include "figures.h"
 #include "surface_map_elastic.h"
 #include <filesystem>
 
@@ -128,8 +129,11 @@ int run_bim(const SurfaceMapArgs& a, const GlobalOptions& g) {
   for (auto& [name, s] : r.timings) stages[name] = s;
   j["bim_stages"] = stages;
   j["bim_total_seconds"] = r.total_seconds;
+  timer.start("pictures");
+  const auto figures = surface_map_figures(in.A, in.B, r.AB.map, a.symmetric ? &r.BA.map : nullptr);
+  timer.stop();
   j["timings"] = timer.json();
-  write_json(out.path("report.json"), j);
+  write_reports(out, j, "shapemap surface-map --method bim", figures);
   out.commit();
   info(g, "surface-map: integrated confidence " + std::to_string(r.AB.integrated_confidence) + ", " +
               std::to_string(r.AB.selected.size()) + " blended maps of " + std::to_string(r.AB.num_candidates) +

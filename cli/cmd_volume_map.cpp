@@ -9,6 +9,7 @@
 // B_on_A.vtk (source connectivity, mapped positions in the target's coordinates) and
 // report.json (inputs, parameters, per-stage timings, Table 3 metrics per direction).
 #include "common.h"
+#include "figures.h"
 #include "shapemap/checks.h"
 #include "shapemap/error.h"
 #include "shapemap/eval/volume_metrics.h"
@@ -17,7 +18,11 @@
 #include "shapemap/volume/symmetric_map.h"
 #include "shapemap/volume/tetrahedralize.h"
 #include <Eigen/Dense>
+#include <cstdlib>
+#include <fstream>
+#include <iterator>
 #include <memory>
+#include <unistd.h>
 
 namespace shapemap::cli {
 
@@ -83,8 +88,9 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
   c.app = app.add_subcommand("volume-map", "Symmetric volume map between two tetrahedral meshes");
   struct Args {
     std::string A, B, out, init;
-    std::vector<std::string> landmarks, surface_map;
+    std::vector<std::string> landmarks, surface_map, surface_map_meshes;
     int tets = 0;
+    std::string auto_surface = "elastic";
     SymmetricVolumeMapOptions opt;
   };
   auto a = std::make_shared<Args>();
@@ -100,6 +106,16 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
   c.app->add_option("--surface-map", a->surface_map,
                     "Surface map files MAP_AB MAP_BA between the boundary surfaces (or the input surfaces)")
       ->expected(2);
+  c.app->add_option("--surface-map-meshes", a->surface_map_meshes,
+                    "SA SB: the closed surfaces the --surface-map files were computed on (default: the "
+                    "boundary surfaces of A and B as extracted here, or the input surfaces); boundary "
+                    "vertices are located on them by closest point")
+      ->expected(2);
+  c.app->add_option("--auto-surface-map", a->auto_surface,
+                    "--init auto: surface map between the boundaries by BIM only (bim) or BIM "
+                    "refined by elastic correspondence (elastic)")
+      ->check(CLI::IsMember({"bim", "elastic"}))
+      ->capture_default_str();
   c.app->add_option("--tets", a->tets, "Target tet count when tetrahedralizing surfaces (0: default)");
   c.app->add_option("--alpha", a->opt.alpha, "Eq. 25 rigidity weight alpha")->capture_default_str();
   c.app->add_option("--gamma", a->opt.gamma, "Eq. 25 projection weight gamma")->capture_default_str();
@@ -156,15 +172,23 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
       if (init == "surface-map") {
         sAB = read_map(a->surface_map[0]);
         sBA = read_map(a->surface_map[1]);
-        SA = pick(inA, bA, sAB.size(), a->surface_map[0]);
-        SB = pick(inB, bB, sBA.size(), a->surface_map[1]);
+        if (a->surface_map_meshes.size() == 2) {
+          SA = read_surface(a->surface_map_meshes[0]);
+          SB = read_surface(a->surface_map_meshes[1]);
+          validate_map(sAB, SA.num_vertices(), SB.num_faces(), 3, a->surface_map[0]);
+          validate_map(sBA, SB.num_vertices(), SA.num_faces(), 3, a->surface_map[1]);
+        } else {
+          SA = pick(inA, bA, sAB.size(), a->surface_map[0]);
+          SB = pick(inB, bB, sBA.size(), a->surface_map[1]);
+        }
       } else {
         SA = inA.from_surface ? inA.surface : bA.surface;
         SB = inB.from_surface ? inB.surface : bB.surface;
         if (!inA.from_surface) require_genus0_surface(SA, a->A + " (boundary)");
         if (!inB.from_surface) require_genus0_surface(SB, a->B + " (boundary)");
         std::string used;
-        std::tie(sAB, sBA) = surface_map_for_volumes(SA, SB, progress, &used);
+        std::tie(sAB, sBA) =
+            surface_map_for_volumes(SA, SB, progress, &used, a->auto_surface == "elastic");
         init_detail = "auto (" + used + ")";
       }
       i12 = surface_initial_map(A, B, SA, SB, sAB);
@@ -214,13 +238,18 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
       stages.push_back({{"name", s.name}, {"iterations", s.iterations}, {"seconds", s.seconds},
                         {"energy", s.energy}, {"n_inv_AB", s.inverted12}, {"n_inv_BA", s.inverted21},
                         {"seconds_P_step", s.time_pstep}, {"seconds_X_step", s.time_xstep},
-                        {"lbfgs_iterations", s.lbfgs_iterations}, {"evaluations", s.evaluations}});
+                        {"lbfgs_iterations", s.lbfgs_iterations}, {"evaluations", s.evaluations},
+                        {"stop_reason", s.stop_reason}, {"energy_history", s.energy_history},
+                        {"gradient_history", s.gradient_history}});
     j["algorithm_stages"] = stages;
     j["energy"] = {{"E", r.E}, {"E_ARAP", r.E_arap}, {"E_R", r.E_R}, {"E_P", r.E_P}, {"E_Q", r.E_Q},
                    {"outer_iterations", r.iterations}};
     j["metrics"] = {{"AB", metrics_json(m12)}, {"BA", metrics_json(m21)}};
+    timer.start("pictures");
+    const auto figures = volume_map_figures(A, r.X12, &B, &r.X21);
+    timer.stop();
     j["timings"] = timer.json();
-    write_json(out.path("report.json"), j);
+    write_reports(out, j, "shapemap volume-map", figures);
     out.commit();
     info(g, "volume-map: n_inv " + std::to_string(m12.n_inv) + " / " + std::to_string(m21.n_inv) +
                 ", d_avg^ " + std::to_string(m12.d_avg) + " / " + std::to_string(m21.d_avg) +

@@ -1,17 +1,25 @@
-// shapemap evaluate surface A B MAP [--truth TRUTH | --landmarks LA LB] [-o FILE]
+// shapemap evaluate surface A B MAP [--truth TRUTH | --landmarks LA LB] [--map-ba MAP_BA] [--per-face] [-o FILE]
 // Metrics of a surface map A -> B (MAP in the map_AB.txt format): the BIM benchmark
 // protocol (Kim et al. 2011, Sec. 8.2): geodesic error of each ground-truth
 // correspondence normalized by sqrt(area(B)), its cumulative curve at thresholds
 // 0, 0.01, ..., 0.25, mean and maximum; against a dense truth map (TRUTH, same format,
 // e.g. from `shapemap generate`) or sparse landmarks (line i of LA <-> line i of LB).
-// Always: the map's integrated confidence (area preservation, Eq. 2). JSON on stdout,
-// or in FILE with -o.
+// Always: the map's integrated confidence (area preservation, Eq. 2) and the distortion
+// metrics of elastic-correspondence.txt Sec. 6.1 (eval/surface_distortion.h), on unit-area
+// copies of A and B: conformal distortion per triangle (Hormann-Greiner MIPS - 2), area
+// distortion log(a/a^) per triangle, mean curvature error |P H~ - H| in the lumped L2 norm,
+// flipped and collapsed mapped triangles; with --map-ba MAP_BA (B -> A) also the
+// reversibility |P Q X - X|_X and the same metrics for MAP_BA. --per-face adds the
+// per-triangle values. JSON on stdout, or in FILE with -o.
 #include "common.h"
 #include "shapemap/error.h"
+#include "shapemap/eval/surface_distortion.h"
 #include "shapemap/eval/surface_metrics.h"
 #include "shapemap/io.h"
 #include "shapemap/maps.h"
+#include <algorithm>
 #include <iostream>
+#include <vector>
 
 namespace shapemap::cli {
 
@@ -28,13 +36,51 @@ nlohmann::json curve_json(const SurfaceErrorCurve& c) {
   return j;
 }
 
+// Sec. 6.1 distortion metrics of the map S -> T (unit-area copies).
+nlohmann::json distortion_json(const TriMesh& S, const TriMesh& T, const BarycentricMap& P,
+                               bool per_face) {
+  const SurfaceDistortion d = surface_distortion(S, T, P);
+  auto quantile = [](const Eigen::VectorXd& v, double q) {
+    if (v.size() == 0) return 0.0;
+    std::vector<double> s(v.data(), v.data() + v.size());
+    const size_t k = std::min(s.size() - 1, size_t(q * double(s.size() - 1) + 0.5));
+    std::nth_element(s.begin(), s.begin() + k, s.end());
+    return s[k];
+  };
+  const Eigen::VectorXd area_abs = d.area.cwiseAbs();
+  nlohmann::json j;
+  j["conformal_distortion"] = {{"definition", "per triangle sigma1/sigma2 + sigma2/sigma1 - 2 (MIPS - 2), "
+                                              "collapsed triangles clamped to 1e4"},
+                               {"mean", d.conformal_mean},
+                               {"median", d.conformal_median},
+                               {"p90", quantile(d.conformal, 0.9)},
+                               {"max", d.conformal.size() ? d.conformal.maxCoeff() : 0.0}};
+  j["area_distortion"] = {{"definition", "per triangle log(a/a^), a^ source area, a mapped area; "
+                                         "statistics of |log(a/a^)|"},
+                          {"mean_abs", d.area_mean_abs},
+                          {"median_abs", d.area_median_abs},
+                          {"p90_abs", quantile(area_abs, 0.9)},
+                          {"max_abs", area_abs.size() ? area_abs.maxCoeff() : 0.0}};
+  j["mean_curvature_error"] = d.mean_curvature_error;
+  j["flipped_triangles"] = d.flipped;
+  j["degenerate_triangles"] = d.degenerate;
+  j["faces"] = S.num_faces();
+  if (per_face) {
+    j["conformal_distortion"]["per_face"] =
+        std::vector<double>(d.conformal.data(), d.conformal.data() + d.conformal.size());
+    j["area_distortion"]["per_face"] = std::vector<double>(d.area.data(), d.area.data() + d.area.size());
+  }
+  return j;
+}
+
 }  // namespace
 
 Command register_evaluate_surface(CLI::App& evaluate, GlobalOptions& g) {
   Command c;
   c.app = evaluate.add_subcommand("surface", "Metrics of a surface map (BIM benchmark protocol)");
   struct Args {
-    std::string A, B, map, truth, out;
+    std::string A, B, map, truth, out, map_ba;
+    bool per_face = false;
     std::vector<std::string> landmarks;
     int max_points = 0;
   };
@@ -47,6 +93,9 @@ Command register_evaluate_surface(CLI::App& evaluate, GlobalOptions& g) {
   truth->excludes(lm);
   c.app->add_option("--max-points", a->max_points, "Dense truth: evaluate at most this many vertices (0 = all)")
       ->check(CLI::NonNegativeNumber);
+  c.app->add_option("--map-ba", a->map_ba,
+                    "The reverse map B -> A (map_BA.txt): reversibility |PQX - X| and its metrics");
+  c.app->add_flag("--per-face", a->per_face, "Also write per-triangle conformal and area distortion");
   c.app->add_option("-o,--output", a->out, "Write the JSON here instead of stdout");
   c.run = [a, &g] {
     TriMesh A = read_surface(a->A), B = read_surface(a->B);
@@ -77,6 +126,17 @@ Command register_evaluate_surface(CLI::App& evaluate, GlobalOptions& g) {
     double ic = 0;
     surface_map_confidence(A.V, A.F, map_positions(map, B.V, B.F), surface_area(B.V, B.F), &ic);
     j["integrated_confidence"] = ic;
+    // Sec. 6.1 of elastic-correspondence.txt.
+    j["distortion"] = distortion_json(A, B, map, a->per_face);
+    j["distortion"]["normalization"] = "A and B scaled to unit area";
+    if (!a->map_ba.empty()) {
+      BarycentricMap ba = read_map(a->map_ba);
+      validate_map(ba, B.num_vertices(), A.num_faces(), 3, a->map_ba);
+      j["map_ba"] = a->map_ba;
+      j["reversibility"] = reversibility_error(A, B, map, ba);  // |P Q X - X|_X, unit area
+      j["reversibility_definition"] = "|P Q X - X| in the lumped L2 norm of A (unit area)";
+      j["distortion_BA"] = distortion_json(B, A, ba, a->per_face);
+    }
     if (a->out.empty()) {
       std::cout << j.dump(2) << "\n";
     } else {

@@ -1,6 +1,7 @@
 // shapemap surface-map --method elastic: elastic, crease-aware correspondence
 // (elastic-correspondence.txt) initialized by BIM, landmarks or a given map.
 #include "surface_map_elastic.h"
+#include "figures.h"
 
 #include "shapemap/checks.h"
 #include "shapemap/error.h"
@@ -207,8 +208,16 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
   }
   report["energies"] = en;
   const int K = std::max(1, r.outer_iterations);
+  double inner_it = 0, inner_ev = 0;
+  for (const auto& it : r.history) {
+    inner_it += it.inner_iterations;
+    inner_ev += it.inner_evaluations;
+  }
   report["elastic"] = {{"outer_iterations", r.outer_iterations}, {"converged", r.converged},
+                       {"inner_iterations_per_outer", inner_it / K},
+                       {"evaluations_per_outer", inner_ev / K},
                        {"time_setup", r.time_setup},
+                       {"time_total", r.time_total},
                        {"time_projection", r.time_projection},
                        {"time_deformation", r.time_deformation},
                        {"time_per_iteration", (r.time_projection + r.time_deformation) / K},
@@ -235,9 +244,11 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
     write_map(out.path("map_BA.txt"), r.map_BA);
     write_surface(out.path("B_on_A.obj"), TriMesh{map_positions(r.map_BA, A.V, A.F), B.F});
   }
+  timer.start("pictures");
+  const auto figures = surface_map_figures(A, B, r.map_AB, bij ? &r.map_BA : nullptr);
   timer.stop();
   report["timings"] = timer.json();
-  write_reports(out, report, "shapemap surface-map --method elastic");
+  write_reports(out, report, "shapemap surface-map --method elastic", figures);
   out.commit();
   info(g, "elastic: " + std::to_string(r.outer_iterations) + " outer iterations, " +
               std::to_string(timer.total()) + " s; wrote " + out.final_path());

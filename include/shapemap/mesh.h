@@ -39,6 +39,10 @@ struct TetBoundary {
 // vertex maps between volume and surface numbering.
 TetBoundary boundary_surface(const TetMesh& mesh);
 
+// Throws InputError("<what>: ...") unless the element list E has `cols` columns and
+// every index lies in [0, n): the guard of operators that index vertices by elements.
+void require_element_indices(const Eigen::MatrixXi& E, Eigen::Index n, int cols, const char* what);
+
 // Area-weighted and volume-weighted helpers used for normalization.
 double surface_area(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F);
 double signed_volume(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T);     // sum of tet volumes

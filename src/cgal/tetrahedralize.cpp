@@ -14,6 +14,7 @@
 #include <CGAL/Surface_mesh.h>
 #include <CGAL/make_mesh_3.h>
 #include <CGAL/refine_mesh_3.h>
+#include "c3t3_surface.h"  // after the CGAL headers it instantiates
 
 #include <algorithm>
 #include <cmath>
@@ -201,38 +202,7 @@ TriMesh remesh_surface(const TriMesh& surface, double facet_size, double facet_d
   CGAL::refine_mesh_3(c3t3, domain, criteria, P::no_perturb(), P::no_exude(), P::no_odt(),
                       P::no_lloyd(), P::no_reset_c3t3(), P::manifold());
 
-  // Boundary facets, oriented with the inside cell behind them.
-  std::unordered_map<Vertex_handle, int> index;
-  std::vector<Eigen::Vector3d> pts;
-  std::vector<std::array<int, 3>> faces;
-  const Tr& tr = c3t3.triangulation();
-  for (auto f = c3t3.facets_in_complex_begin(); f != c3t3.facets_in_complex_end(); ++f) {
-    Tr::Cell_handle c = f->first;
-    int i = f->second;
-    if (!c3t3.is_in_complex(c)) {
-      Tr::Facet mf = tr.mirror_facet(*f);
-      c = mf.first, i = mf.second;
-    }
-    std::array<Vertex_handle, 3> vh;
-    for (int j = 0; j < 3; ++j) vh[j] = c->vertex(Tr::vertex_triple_index(i, j));
-    // Orient so that the inside vertex c->vertex(i) lies below the triangle.
-    if (CGAL::orientation(vh[0]->point().point(), vh[1]->point().point(), vh[2]->point().point(),
-                          c->vertex(i)->point().point()) == CGAL::POSITIVE)
-      std::swap(vh[1], vh[2]);
-    std::array<int, 3> t;
-    for (int j = 0; j < 3; ++j) {
-      auto [it, inserted] = index.emplace(vh[j], int(pts.size()));
-      if (inserted) pts.push_back(to_eigen(vh[j]->point().point()));
-      t[j] = it->second;
-    }
-    faces.push_back(t);
-  }
-  TriMesh out;
-  out.V.resize(pts.size(), 3);
-  for (size_t i = 0; i < pts.size(); ++i) out.V.row(i) = pts[i].transpose();
-  out.F.resize(faces.size(), 3);
-  for (size_t i = 0; i < faces.size(); ++i) out.F.row(i) << faces[i][0], faces[i][1], faces[i][2];
-  return out;
+  return complex_boundary_surface(c3t3);
 }
 
 }  // namespace cgal_internal

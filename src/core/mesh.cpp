@@ -177,4 +177,12 @@ TetBoundary boundary_surface(const TetMesh& mesh) {
   return b;
 }
 
+void require_element_indices(const Eigen::MatrixXi& E, Eigen::Index n, int cols, const char* what) {
+  if (E.cols() != cols)
+    throw InputError(std::string(what) + ": expected " + std::to_string(cols) + " columns, got " +
+                     std::to_string(E.cols()));
+  if (E.size() > 0 && (E.minCoeff() < 0 || E.maxCoeff() >= n))
+    throw InputError(std::string(what) + ": vertex index out of range [0," + std::to_string(n) + ")");
+}
+
 }  // namespace shapemap

@@ -1,6 +1,7 @@
 // Per-element Jacobians of piecewise-linear maps.
 #include "shapemap/geometry/jacobian.h"
 #include "shapemap/error.h"
+#include "shapemap/mesh.h"
 #include <Eigen/Geometry>
 #include <Eigen/LU>
 #include <cmath>
@@ -9,14 +10,6 @@
 namespace shapemap {
 
 namespace {
-
-void check(const Eigen::MatrixXi& E, Eigen::Index n, int cols, const char* what) {
-  if (E.cols() != cols)
-    throw InputError(std::string(what) + ": expected " + std::to_string(cols) + " columns, got " +
-                     std::to_string(E.cols()));
-  if (E.size() > 0 && (E.minCoeff() < 0 || E.maxCoeff() >= n))
-    throw InputError(std::string(what) + ": vertex index out of range [0," + std::to_string(n) + ")");
-}
 
 // Edge matrix of a triangle in its own orthonormal frame (first axis along x1 - x0,
 // second in the plane): upper triangular 2×2 [[|a|, a.b/|a|], [0, |a×b|/|a|]].
@@ -37,7 +30,7 @@ bool frame_edges(const Eigen::Vector3d& x0, const Eigen::Vector3d& x1, const Eig
 }  // namespace
 
 std::vector<Eigen::Matrix3d> tet_rest_inverse(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T) {
-  check(T, V.rows(), 4, "tet_rest_inverse");
+  require_element_indices(T, V.rows(), 4, "tet_rest_inverse");
   const Eigen::Index m = T.rows();
   std::vector<Eigen::Matrix3d> Dm_inv(m);
   int bad = -1;
@@ -61,7 +54,7 @@ std::vector<Eigen::Matrix3d> tet_rest_inverse(const Eigen::MatrixXd& V, const Ei
 
 void tet_jacobians(const Eigen::MatrixXd& X, const Eigen::MatrixXi& T,
                    const std::vector<Eigen::Matrix3d>& Dm_inv, std::vector<Eigen::Matrix3d>& J) {
-  check(T, X.rows(), 4, "tet_jacobians");
+  require_element_indices(T, X.rows(), 4, "tet_jacobians");
   const Eigen::Index m = T.rows();
   if (Eigen::Index(Dm_inv.size()) != m)
     throw InputError("tet_jacobians: Dm_inv has " + std::to_string(Dm_inv.size()) +
@@ -78,7 +71,7 @@ void tet_jacobians(const Eigen::MatrixXd& X, const Eigen::MatrixXi& T,
 
 void triangle_jacobians(const Eigen::MatrixXd& V_rest, const Eigen::MatrixXd& X,
                         const Eigen::MatrixXi& F, std::vector<Eigen::Matrix2d>& J) {
-  check(F, V_rest.rows(), 3, "triangle_jacobians");
+  require_element_indices(F, V_rest.rows(), 3, "triangle_jacobians");
   if (X.rows() != V_rest.rows())
     throw InputError("triangle_jacobians: X has " + std::to_string(X.rows()) + " rows, V_rest has " +
                      std::to_string(V_rest.rows()));
@@ -107,7 +100,7 @@ void triangle_jacobians(const Eigen::MatrixXd& V_rest, const Eigen::MatrixXd& X,
 
 void first_fundamental_forms(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F,
                              std::vector<Eigen::Matrix2d>& I) {
-  check(F, X.rows(), 3, "first_fundamental_forms");
+  require_element_indices(F, X.rows(), 3, "first_fundamental_forms");
   const Eigen::Index m = F.rows();
   if (Eigen::Index(I.size()) != m) I.resize(m);
 #pragma omp parallel for schedule(static)

@@ -1,6 +1,7 @@
 // Cotangent Laplacians of triangle and tetrahedral meshes (PSD convention, see header).
 #include "shapemap/geometry/laplacian.h"
 #include "shapemap/error.h"
+#include "shapemap/mesh.h"
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
@@ -14,14 +15,6 @@
 namespace shapemap {
 
 namespace {
-
-void check_indices(const Eigen::MatrixXi& E, Eigen::Index n, int cols, const char* what) {
-  if (E.cols() != cols)
-    throw InputError(std::string(what) + ": expected " + std::to_string(cols) + " columns, got " +
-                     std::to_string(E.cols()));
-  if (E.size() > 0 && (E.minCoeff() < 0 || E.maxCoeff() >= n))
-    throw InputError(std::string(what) + ": vertex index out of range [0," + std::to_string(n) + ")");
-}
 
 // Edge order inside a tet, shared with tet_cotan_weights' documentation.
 constexpr int kTetEdge[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
@@ -145,7 +138,7 @@ bool has_pattern(const Eigen::SparseMatrix<double>& L, const TetPattern& P) {
 }  // namespace
 
 Eigen::SparseMatrix<double> cotan_laplacian(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
-  check_indices(F, V.rows(), 3, "cotan_laplacian");
+  require_element_indices(F, V.rows(), 3, "cotan_laplacian");
   const Eigen::Index m = F.rows();
   std::vector<Eigen::Triplet<double>> trip(size_t(m) * 12);
 #pragma omp parallel for schedule(static)
@@ -172,7 +165,7 @@ Eigen::SparseMatrix<double> cotan_laplacian(const Eigen::MatrixXd& V, const Eige
 }
 
 Eigen::MatrixXd tet_cotan_weights(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T) {
-  check_indices(T, V.rows(), 4, "tet_cotan_weights");
+  require_element_indices(T, V.rows(), 4, "tet_cotan_weights");
   const Eigen::Index m = T.rows();
   Eigen::MatrixXd W(m, 6);
   // With c_i the doubled area vector of the face opposite vertex i (consistently outward or

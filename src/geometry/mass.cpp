@@ -1,6 +1,7 @@
 // Lumped and mixed-Voronoi mass matrices (diagonals).
 #include "shapemap/geometry/mass.h"
 #include "shapemap/error.h"
+#include "shapemap/mesh.h"
 #include <Eigen/Geometry>
 #include <cmath>
 #include <string>
@@ -8,14 +9,6 @@
 namespace shapemap {
 
 namespace {
-
-void check(const Eigen::MatrixXi& E, Eigen::Index n, int cols, const char* what) {
-  if (E.cols() != cols)
-    throw InputError(std::string(what) + ": expected " + std::to_string(cols) + " columns, got " +
-                     std::to_string(E.cols()));
-  if (E.size() > 0 && (E.minCoeff() < 0 || E.maxCoeff() >= n))
-    throw InputError(std::string(what) + ": vertex index out of range [0," + std::to_string(n) + ")");
-}
 
 // Sums per-corner contributions C (m×k) into vertices serially (deterministic).
 Eigen::VectorXd scatter(const Eigen::MatrixXi& E, const Eigen::MatrixXd& C, Eigen::Index n) {
@@ -28,7 +21,7 @@ Eigen::VectorXd scatter(const Eigen::MatrixXi& E, const Eigen::MatrixXd& C, Eige
 }  // namespace
 
 Eigen::VectorXd lumped_mass(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
-  check(F, V.rows(), 3, "lumped_mass");
+  require_element_indices(F, V.rows(), 3, "lumped_mass");
   const Eigen::Index m = F.rows();
   Eigen::MatrixXd C(m, 3);
 #pragma omp parallel for schedule(static)
@@ -40,7 +33,7 @@ Eigen::VectorXd lumped_mass(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) 
 }
 
 Eigen::VectorXd voronoi_mass(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
-  check(F, V.rows(), 3, "voronoi_mass");
+  require_element_indices(F, V.rows(), 3, "voronoi_mass");
   const Eigen::Index m = F.rows();
   Eigen::MatrixXd C(m, 3);
 #pragma omp parallel for schedule(static)
@@ -75,7 +68,7 @@ Eigen::VectorXd voronoi_mass(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F)
 }
 
 Eigen::VectorXd tet_lumped_mass(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T) {
-  check(T, V.rows(), 4, "tet_lumped_mass");
+  require_element_indices(T, V.rows(), 4, "tet_lumped_mass");
   const Eigen::Index m = T.rows();
   Eigen::MatrixXd C(m, 4);
 #pragma omp parallel for schedule(static)

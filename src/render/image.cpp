@@ -7,10 +7,15 @@
 #include <cstdio>
 #include <cstring>
 
+// Third-party single-header libraries: their own warnings are not ours to fix.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmissing-field-initializers"
+#pragma GCC diagnostic ignored "-Wunused-function"
 #define STB_IMAGE_WRITE_IMPLEMENTATION
 #define STBI_WRITE_NO_STDIO
 #include <stb_image_write.h>
 #include <stb_easy_font.h>
+#pragma GCC diagnostic pop
 
 namespace shapemap {
 

@@ -6,6 +6,7 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <map>
 
 namespace shapemap {
 
@@ -142,40 +143,118 @@ Image render_landmarks(const TriMesh& mesh, const std::vector<int>& landmarks, c
 }
 
 namespace {
-// Boundary (outer surface part and cut faces) of the tets whose centroid lies on the
-// negative side of the plane through the mesh centroid with normal e_axis.
-TetBoundary cut_half(const TetMesh& mesh, const Eigen::MatrixXd& P, int axis, std::vector<int>& kept) {
-  double mid = 0.5 * (P.col(axis).minCoeff() + P.col(axis).maxCoeff());
-  kept.clear();
-  for (Eigen::Index t = 0; t < mesh.T.rows(); ++t) {
-    double c = 0;
-    for (int j = 0; j < 4; ++j) c += P(mesh.T(t, j), axis);
-    if (c / 4 <= mid) kept.push_back(int(t));
+// The part of a tet mesh (positions P) on the side x[axis] <= mid of a plane, drawn as
+// its outer boundary clipped exactly by the plane plus the exact cross-section (each
+// tet the plane crosses contributes a triangle or a quad). Texture positions T (n×3)
+// are interpolated linearly along cut edges, which is exact for a piecewise-linear map,
+// so the checkerboard on the section is the true image of the slice.
+struct Section {
+  std::vector<Eigen::Vector3d> V, A;  // positions and texture positions
+  std::vector<Eigen::Vector3i> F;
+  std::vector<int> tet;                // tet of each face (for inverted-tet colouring)
+};
+
+Section clipped_half(const TetMesh& mesh, const Eigen::MatrixXd& P, const Eigen::MatrixXd& T, int axis) {
+  const double mid = 0.5 * (P.col(axis).minCoeff() + P.col(axis).maxCoeff());
+  auto side = [&](int v) { return P(v, axis) - mid; };
+  Section s;
+  auto edge_point = [&](int u, int v) {  // side(u) <= 0 < side(v)
+    double t = side(u) / (side(u) - side(v));
+    s.V.push_back(P.row(u).transpose() + t * (P.row(v) - P.row(u)).transpose());
+    s.A.push_back(T.row(u).transpose() + t * (T.row(v) - T.row(u)).transpose());
+    return int(s.V.size()) - 1;
+  };
+  // Outer boundary, clipped (Sutherland-Hodgman on each triangle). Shared vertices and
+  // shared edge points are deduplicated so shading stays smooth.
+  TetBoundary b = boundary_surface(mesh);
+  std::vector<int> vid(size_t(P.rows()), -1);
+  std::map<std::pair<int, int>, int> eid;
+  auto vertex = [&](int v) {
+    if (vid[size_t(v)] < 0) {
+      s.V.push_back(P.row(v).transpose());
+      s.A.push_back(T.row(v).transpose());
+      vid[size_t(v)] = int(s.V.size()) - 1;
+    }
+    return vid[size_t(v)];
+  };
+  auto cut = [&](int u, int v) {  // u inside, v outside
+    auto key = std::make_pair(std::min(u, v), std::max(u, v));
+    auto it = eid.find(key);
+    if (it != eid.end()) return it->second;
+    int id = edge_point(u, v);
+    eid[key] = id;
+    return id;
+  };
+  for (Eigen::Index f = 0; f < b.surface.F.rows(); ++f) {
+    int c[3];
+    for (int j = 0; j < 3; ++j) c[j] = b.to_volume(b.surface.F(f, j));
+    std::vector<int> poly;
+    for (int j = 0; j < 3; ++j) {
+      int u = c[j], v = c[(j + 1) % 3];
+      bool iu = side(u) <= 0, iv = side(v) <= 0;
+      if (iu) poly.push_back(vertex(u));
+      if (iu != iv) poly.push_back(iu ? cut(u, v) : cut(v, u));
+    }
+    for (size_t k = 2; k < poly.size(); ++k) {
+      s.F.emplace_back(poly[0], poly[k - 1], poly[k]);
+      s.tet.push_back(b.face_tet(f));
+    }
   }
-  TetMesh half;
-  half.V = P;
-  half.T.resize(Eigen::Index(kept.size()), 4);
-  for (size_t i = 0; i < kept.size(); ++i) half.T.row(Eigen::Index(i)) = mesh.T.row(kept[i]);
-  return boundary_surface(half);
+  // Cross-section: points on the crossing edges of each tet, ordered around the polygon.
+  for (Eigen::Index t = 0; t < mesh.T.rows(); ++t) {
+    int in[4], out[4], ni = 0, no = 0;
+    for (int j = 0; j < 4; ++j) {
+      int v = mesh.T(t, j);
+      (side(v) <= 0 ? in[ni++] : out[no++]) = v;
+    }
+    if (ni == 0 || no == 0) continue;
+    if (ni == 1 || no == 1) {  // triangle
+      int a, o[3];
+      if (ni == 1) {
+        a = in[0];
+        for (int j = 0; j < 3; ++j) o[j] = edge_point(a, out[j]);
+      } else {
+        a = out[0];
+        for (int j = 0; j < 3; ++j) o[j] = edge_point(in[j], a);
+      }
+      s.F.emplace_back(o[0], o[1], o[2]);
+      s.tet.push_back(int(t));
+    } else {  // quad: edges (i0,o0), (i0,o1), (i1,o1), (i1,o0) form a cycle
+      int q0 = edge_point(in[0], out[0]), q1 = edge_point(in[0], out[1]);
+      int q2 = edge_point(in[1], out[1]), q3 = edge_point(in[1], out[0]);
+      s.F.emplace_back(q0, q1, q2);
+      s.F.emplace_back(q0, q2, q3);
+      s.tet.push_back(int(t));
+      s.tet.push_back(int(t));
+    }
+  }
+  return s;
 }
 
 Image slice_picture(const TetMesh& mesh, const Eigen::MatrixXd& P, const Eigen::MatrixXd& texture_pos,
                     const std::vector<char>& bad, int axis, const SceneOptions& opt) {
-  std::vector<int> kept;
-  TetBoundary b = cut_half(mesh, P, axis, kept);
-  if (b.surface.F.rows() == 0) throw InputError("volume slice: empty mesh");
+  Section sec = clipped_half(mesh, P, texture_pos, axis);
+  if (sec.F.empty()) throw InputError("volume slice: empty mesh");
   double diag = (texture_pos.colwise().maxCoeff() - texture_pos.colwise().minCoeff()).norm();
-  double s = opt.checker_squares / std::max(diag, 1e-12);
-  Eigen::MatrixXd A(b.surface.V.rows(), 3);
-  for (Eigen::Index i = 0; i < A.rows(); ++i) A.row(i) = texture_pos.row(b.to_volume(i)) * s;
-  std::vector<char> face_bad(size_t(b.surface.F.rows()), 0);
-  for (Eigen::Index f = 0; f < b.surface.F.rows(); ++f) face_bad[size_t(f)] = bad[size_t(kept[size_t(b.face_tet(f))])];
+  double scale = opt.checker_squares / std::max(diag, 1e-12);
+  Eigen::MatrixXd V(Eigen::Index(sec.V.size()), 3), A(Eigen::Index(sec.V.size()), 3);
+  for (size_t i = 0; i < sec.V.size(); ++i) {
+    V.row(Eigen::Index(i)) = sec.V[i].transpose();
+    A.row(Eigen::Index(i)) = sec.A[i].transpose() * scale;
+  }
+  Eigen::MatrixXi F(Eigen::Index(sec.F.size()), 3);
+  for (size_t f = 0; f < sec.F.size(); ++f) F.row(Eigen::Index(f)) = sec.F[f].transpose();
   Shader shader = [&](const double* a, int f) {
-    if (face_bad[size_t(f)]) return kRed;
+    if (bad[size_t(sec.tet[size_t(f)])]) return kRed;
     return checker_colour(checker3(a[0], a[1], a[2]));
   };
-  // Frame the whole mesh so halves of different meshes line up.
-  return draw_single(b.surface.V, b.surface.F, A, shader, opt, &P);
+  // Look at the cut face (it faces +axis); frame the whole mesh so halves line up.
+  SceneOptions o = opt;
+  o.view_dir = Eigen::Vector3d::Zero();
+  o.view_dir[axis] = -1.0;
+  o.view_dir[(axis + 1) % 3] = -0.5;
+  o.view_dir[(axis + 2) % 3] = -0.35;
+  return draw_single(V, F, A, shader, o, &P);
 }
 }  // namespace
 

@@ -3,11 +3,9 @@
 
 #include "shapemap/error.h"
 #include "shapemap/geometry/closest_point.h"
-#include "shapemap/optim/lbfgs.h"
 #include "shapemap/surface/shell_energy.h"
 
 #include <Eigen/Geometry>
-#include <Eigen/Sparse>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -18,6 +16,12 @@ namespace {
 
 using RowMat3 = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
 using Clock = std::chrono::steady_clock;
+
+// Loops of Algorithm 1 over vertices run in parallel only from this size on: on the shared
+// 2-core machine a parallel region inside the alternating loop cost more than it saved for
+// 5k-vertex meshes (threads waiting for a descheduled partner; docs/methods.md). Results
+// do not depend on it (each row is independent).
+constexpr int kParallelMinRows = 1 << 16;
 
 double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
@@ -61,7 +65,7 @@ void sanitize(BarycentricMap& map) {
 void apply_map(const BarycentricMap& P, const Eigen::MatrixXi& F, const Eigen::MatrixXd& V,
                RowMat3& out) {
   out.resize(P.size(), 3);
-#pragma omp parallel for schedule(static) if (P.size() > 4096)
+#pragma omp parallel for schedule(static) if (P.size() >= kParallelMinRows)
   for (int i = 0; i < P.size(); ++i) {
     const int f = P.elem(i);
     out.row(i) = P.bary(i, 0) * V.row(F(f, 0)) + P.bary(i, 1) * V.row(F(f, 1)) +
@@ -69,17 +73,33 @@ void apply_map(const BarycentricMap& P, const Eigen::MatrixXi& F, const Eigen::M
   }
 }
 
-// Sparse matrix of a barycentric map (rows: source vertices, cols: target vertices).
-Eigen::SparseMatrix<double, Eigen::RowMajor> map_matrix(const BarycentricMap& P,
-                                                        const Eigen::MatrixXi& F, int cols) {
-  std::vector<Eigen::Triplet<double>> t;
-  t.reserve(3 * P.size());
-  for (int i = 0; i < P.size(); ++i)
-    for (int j = 0; j < 3; ++j) t.emplace_back(i, F(P.elem(i), j), P.bary(i, j));
-  Eigen::SparseMatrix<double, Eigen::RowMajor> M(P.size(), cols);
-  M.setFromTriplets(t.begin(), t.end());
-  return M;
-}
+// L-BFGS of the Y / Y~ steps (Nocedal & Wright Alg. 7.4/7.5 with Armijo backtracking, the
+// same iteration as optim/lbfgs.h with wolfe = false), specialized so that (a) all vectors
+// live in the side and are allocated once per run, (b) the curvature pairs can be kept from
+// one outer iteration to the next (warm start, ElasticOptions::lbfgs_warm_start), and (c)
+// the parts of the energy at the accepted point come from the last evaluation.
+struct ElasticLbfgs {
+  int m = 0;
+  Eigen::MatrixXd S, Yd;         // 3n × m curvature pairs (circular buffer)
+  Eigen::VectorXd rho, a;
+  int stored = 0, newest = -1;
+  double gamma = 1;
+  Eigen::VectorXd x, x0, g, d, x_new, g_new;
+  void init(Eigen::Index n, int memory) {
+    m = std::max(1, memory);
+    S.resize(n, m);
+    Yd.resize(n, m);
+    rho.resize(m);
+    a.resize(m);
+    for (Eigen::VectorXd* v : {&x, &x0, &g, &d, &x_new, &g_new}) v->resize(n);
+    reset();
+  }
+  void reset() {
+    stored = 0;
+    newest = -1;
+    gamma = 1;
+  }
+};
 
 // One side of the alternating scheme: the deformation Y of the source (X, F) toward
 // the target (Xt, Ft), with P its projection and Q the reverse projection.
@@ -94,38 +114,57 @@ struct Side {
   ClosestPointBVH<6> bvh6;      // target triangulation in R^6 (bijective)
   ClosestPointBVH<3> bvh3;      // target triangulation in R^3 (injective)
   bool built = false;
+  // projection scratch (allocated once): A (n~×6), B (n×6) and the query results, whose
+  // elements are the hints (previous P) of the next projection.
+  Eigen::MatrixXd projA, projB;
+  std::vector<ClosestPointResult> proj;
+  ElasticLbfgs lbfgs;           // Y-step L-BFGS buffers and (warm-start) curvature pairs
 };
 
 // P step: rows of B = [sqrt(beta) Y, sqrt(gamma) X] onto the target triangulation with
 // vertex coordinates A = [sqrt(beta) X~, sqrt(gamma) Y~] (Sec. 5.1 "Mapping optimization").
+// The BVH is built once and refit afterwards; every query starts from the previous face
+// of that vertex as a hint (the same exact closest point, fewer boxes visited).
 void projection_step(Side& s, const Side& t, double beta, double gamma, bool bijective) {
   const int n = int(s.X.rows());
-  std::vector<ClosestPointResult> res;
+  if (int(s.proj.size()) != n) {
+    s.proj.assign(n, ClosestPointResult{});
+    for (int i = 0; i < n; ++i) s.proj[i].elem = s.P.elem(i);
+  }
   if (bijective) {
     const double sb = std::sqrt(beta), sg = std::sqrt(gamma);
-    Eigen::MatrixXd A(t.X.rows(), 6), B(n, 6);
-    A.leftCols(3) = sb * t.X;
-    A.rightCols(3) = sg * t.Y;
-    B.leftCols(3) = sb * s.Y;
-    B.rightCols(3) = sg * s.X;
+    s.projA.resize(t.X.rows(), 6);
+    s.projB.resize(n, 6);
+    s.projA.leftCols(3) = sb * t.X;
+    s.projA.rightCols(3) = sg * t.Y;
+    s.projB.leftCols(3) = sb * s.Y;
+    s.projB.rightCols(3) = sg * s.X;
     if (!s.built) {
-      s.bvh6.build(A, t.F);
+      s.bvh6.build(s.projA, t.F);
       s.built = true;
     } else {
-      s.bvh6.refit(A);
+      s.bvh6.refit(s.projA);
     }
-    res = s.bvh6.query(B);
+    const Eigen::MatrixXd& B = s.projB;
+#pragma omp parallel for schedule(dynamic, 64) if (n >= kParallelMinRows)
+    for (int i = 0; i < n; ++i)
+      s.proj[i] = s.bvh6.query(ClosestPoint6::Point(B.row(i).transpose()), s.proj[i].elem);
   } else {
     if (!s.built) {
       s.bvh3.build(t.X, t.F);  // beta scales both sides alike: project Y onto X~ in R^3
       s.built = true;
     }
-    res = s.bvh3.query(Eigen::MatrixXd(s.Y));
+#pragma omp parallel for schedule(dynamic, 64) if (n >= kParallelMinRows)
+    for (int i = 0; i < n; ++i)
+      s.proj[i] = s.bvh3.query(ClosestPoint3::Point(s.Y.row(i).transpose()), s.proj[i].elem);
   }
   for (int i = 0; i < n; ++i) {
-    if (res[i].elem < 0) continue;  // keep the previous row (cannot happen on valid input)
-    s.P.elem(i) = res[i].elem;
-    s.P.bary.row(i) = res[i].bary.head<3>().transpose();
+    if (s.proj[i].elem < 0) {  // keep the previous row (cannot happen on valid input)
+      s.proj[i].elem = s.P.elem(i);
+      continue;
+    }
+    s.P.elem(i) = s.proj[i].elem;
+    s.P.bary.row(i) = s.proj[i].bary.head<3>().transpose();
   }
   sanitize(s.P);
   apply_map(s.P, t.F, t.X, s.PXt);
@@ -138,81 +177,183 @@ struct EnergyParts {
 // Terms of E (Eq. 6) that involve the side's Y:
 //   W_def(X, Y) + beta |P X~ - Y|_X^2 + gamma |Q Y - X~|_X~^2
 // with Q = the target side's projection (target vertices -> source faces).
+// Evaluation writes the parts of the last evaluation into `last`.
 class DeformationObjective {
  public:
   DeformationObjective(const Side& s, const Side& t, double beta, double gamma, bool bijective)
-      : s_(s), t_(t), beta_(beta), gamma_(gamma), bij_(bijective) {
-    if (bij_) {
-      Q_ = map_matrix(t.P, s.F, int(s.X.rows()));
-      Qt_ = Q_.transpose();
-      QY_.resize(t.X.rows(), 3);
-      R_.resize(t.X.rows(), 3);
-    }
-  }
-  double operator()(const Eigen::VectorXd& x, Eigen::VectorXd& g, EnergyParts* parts = nullptr) {
+      : s_(s), t_(t), beta_(beta), gamma_(gamma), bij_(bijective) {}
+  double operator()(const Eigen::VectorXd& x, Eigen::VectorXd& g) {
     const int n = int(s_.X.rows());
-    Eigen::Map<const RowMat3> Y(x.data(), n, 3);
-    Eigen::Map<RowMat3> G(g.data(), n, 3);
-    const double Wd = s_.shell.evaluate(x.data(), g.data());
-    // beta |P X~ - Y|_X^2 (Eq. 3 norm)
+    const double* y = x.data();
+    double* gr = g.data();
+    const double Wd = s_.shell.evaluate(y, gr);
+    // beta |P X~ - Y|_X^2 (Eq. 3 norm), gradient 2 beta M (Y - P X~)
     double mis = 0;
+    const double* pxt = s_.PXt.data();
     for (int i = 0; i < n; ++i) {
-      const Eigen::RowVector3d r = Y.row(i) - s_.PXt.row(i);
-      mis += s_.mass(i) * r.squaredNorm();
-      G.row(i) += 2 * beta_ * s_.mass(i) * r;
+      const double r0 = y[3 * i] - pxt[3 * i], r1 = y[3 * i + 1] - pxt[3 * i + 1],
+                   r2 = y[3 * i + 2] - pxt[3 * i + 2];
+      const double mi = s_.mass(i), w = 2 * beta_ * mi;
+      mis += mi * (r0 * r0 + r1 * r1 + r2 * r2);
+      gr[3 * i] += w * r0;
+      gr[3 * i + 1] += w * r1;
+      gr[3 * i + 2] += w * r2;
     }
     mis *= beta_;
     double rev = 0;
     if (bij_) {
-      // gamma |Q Y - X~|_X~^2, gradient 2 gamma Q^T M~ (Q Y - X~)
-      QY_.noalias() = Q_ * Y;
-      for (int j = 0; j < R_.rows(); ++j) {
-        const Eigen::RowVector3d r = QY_.row(j) - t_.X.row(j);
-        rev += t_.mass(j) * r.squaredNorm();
-        R_.row(j) = (2 * gamma_ * t_.mass(j)) * r;
+      // gamma |Q Y - X~|_X~^2 with Q = the target's map (its vertices j -> our faces),
+      // gradient 2 gamma Q^T M~ (Q Y - X~): per row j, gather Q Y, scatter to the face's
+      // corners (serial, fixed order).
+      const BarycentricMap& Q = t_.P;
+      const Eigen::MatrixXi& F = s_.F;
+      for (int j = 0; j < Q.size(); ++j) {
+        const int f = Q.elem(j);
+        const double b0 = Q.bary(j, 0), b1 = Q.bary(j, 1), b2 = Q.bary(j, 2);
+        const double* y0 = y + 3 * F(f, 0);
+        const double* y1 = y + 3 * F(f, 1);
+        const double* y2 = y + 3 * F(f, 2);
+        double r[3];
+        for (int k = 0; k < 3; ++k) r[k] = b0 * y0[k] + b1 * y1[k] + b2 * y2[k] - t_.X(j, k);
+        const double mj = t_.mass(j), w = 2 * gamma_ * mj;
+        rev += mj * (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
+        double* g0 = gr + 3 * F(f, 0);
+        double* g1 = gr + 3 * F(f, 1);
+        double* g2 = gr + 3 * F(f, 2);
+        for (int k = 0; k < 3; ++k) {
+          const double wr = w * r[k];
+          g0[k] += b0 * wr;
+          g1[k] += b1 * wr;
+          g2[k] += b2 * wr;
+        }
       }
       rev *= gamma_;
-      G.noalias() += Qt_ * R_;
     }
-    if (parts) *parts = {Wd, mis, rev};
+    last = {Wd, mis, rev};
     return Wd + mis + rev;
   }
+  EnergyParts last;
 
  private:
   const Side& s_;
   const Side& t_;
   double beta_, gamma_;
   bool bij_;
-  Eigen::SparseMatrix<double, Eigen::RowMajor> Q_, Qt_;
-  RowMat3 QY_, R_;
 };
 
 int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bijective,
-                     const ElasticOptions& opt, EnergyParts& parts) {
+                     const ElasticOptions& opt, EnergyParts& parts, int& evaluations) {
   const int n = int(s.X.rows());
   DeformationObjective obj(s, t, beta, gamma, bijective);
-  Eigen::VectorXd x = Eigen::Map<const Eigen::VectorXd>(s.Y.data(), 3 * n);
-  const Eigen::VectorXd x0 = x;
-  LbfgsOptions lo;
-  lo.max_iterations = opt.inner_max_iterations;
-  lo.memory = opt.lbfgs_memory;
-  lo.grad_tol = opt.inner_tol;
-  lo.f_decrease_tol = opt.inner_f_tol;
-  lo.wolfe = false;  // Armijo backtracking (Sec. 5.1)
-  Objective f = [&obj](const Eigen::VectorXd& y, Eigen::VectorXd& g) { return obj(y, g); };
+  ElasticLbfgs& L = s.lbfgs;
+  if (L.x.size() != 3 * n) L.init(3 * n, opt.lbfgs_memory);
+  if (!opt.lbfgs_warm_start) L.reset();
+  L.x = Eigen::Map<const Eigen::VectorXd>(s.Y.data(), 3 * n);
+  L.x0 = L.x;
   // Admissible edges fixed for this inner solve (continuous energy along line searches),
   // recomputed at the start of every Y step (docs/methods.md).
-  s.shell.freeze_mask(x.data());
-  LbfgsResult r = lbfgs_minimize(f, x, lo);
-  s.shell.unfreeze_mask();
-  Eigen::VectorXd g(3 * n);
-  double E = obj(x, g, &parts);
-  if (!x.allFinite() || !std::isfinite(E)) {  // never hand on NaN: keep the previous Y
-    x = x0;
-    obj(x, g, &parts);
+  s.shell.freeze_mask(L.x.data());
+  double f = obj(L.x, L.g);
+  ++evaluations;
+  parts = obj.last;
+  int iterations = 0;
+  const int mm = L.m;
+  bool restarted = false;  // the last direction was steepest descent after a reset
+  if (std::isfinite(f) && L.g.lpNorm<Eigen::Infinity>() >= opt.inner_tol) {
+    while (iterations < opt.inner_max_iterations) {
+      // Two-loop recursion: d = -H g.
+      L.d = L.g;
+      for (int k = 0; k < L.stored; ++k) {
+        const int i = (L.newest - k + mm) % mm;
+        L.a(i) = L.rho(i) * L.S.col(i).dot(L.d);
+        L.d.noalias() -= L.a(i) * L.Yd.col(i);
+      }
+      L.d *= L.gamma;
+      for (int k = L.stored - 1; k >= 0; --k) {
+        const int i = (L.newest - k + mm) % mm;
+        const double b = L.rho(i) * L.Yd.col(i).dot(L.d);
+        L.d.noalias() += (L.a(i) - b) * L.S.col(i);
+      }
+      L.d = -L.d;
+      double gd = L.g.dot(L.d);
+      if (!(gd < 0)) {  // not a descent direction (rounding): steepest descent
+        L.reset();
+        L.d = -L.g;
+        gd = L.g.dot(L.d);
+      }
+      // Armijo backtracking (Sec. 5.1); first step without curvature information: unit length.
+      // Backtracking by safeguarded quadratic interpolation (Nocedal & Wright Sec. 3.5:
+      // the minimizer of the quadratic through f(0), f'(0), f(alpha), kept in
+      // [0.1, 0.5] alpha). After the first trial the search gives up once the predicted
+      // decrease alpha |g.d| is below the inner stalled-progress tolerance (an accepted step
+      // would end the solve on that criterion anyway) instead of halving down to rounding
+      // noise (up to 40 evaluations, then as many again from steepest descent).
+      double alpha = L.stored == 0 ? std::min(1.0, 1.0 / std::sqrt(-gd)) : 1.0;
+      const double c1 = 1e-4;
+      const double min_decrease =
+          opt.inner_f_tol > 0 ? opt.inner_f_tol * std::max(1.0, std::abs(f)) : 0.0;
+      bool ok = false;
+      double f_new = f;
+      EnergyParts p_new;
+      for (int k = 0; k < 40 && gd < 0; ++k) {
+        if (k > 0 && alpha * -gd < min_decrease) break;
+        L.x_new.noalias() = L.x + alpha * L.d;
+        f_new = obj(L.x_new, L.g_new);
+        ++evaluations;
+        if (std::isfinite(f_new) && f_new <= f + c1 * alpha * gd) {
+          ok = true;
+          p_new = obj.last;
+          break;
+        }
+        double next = 0.5 * alpha;
+        if (std::isfinite(f_new)) {
+          const double curv = f_new - f - alpha * gd;  // > 0: Armijo failed
+          if (curv > 0) next = std::clamp(-gd * alpha * alpha / (2 * curv), 0.1 * alpha, 0.5 * alpha);
+        }
+        alpha = next;
+      }
+      if (!ok) {
+        if (L.stored > 0 && !restarted) {  // retry once from steepest descent
+          L.reset();
+          restarted = true;
+          continue;
+        }
+        break;
+      }
+      restarted = false;
+      // Curvature pair; skipped when s'y <= 1e-10 |s| |y| (no positive curvature).
+      const int slot = (L.newest + 1) % mm;
+      L.S.col(slot) = L.x_new - L.x;
+      L.Yd.col(slot) = L.g_new - L.g;
+      const double sy = L.S.col(slot).dot(L.Yd.col(slot));
+      const double yy = L.Yd.col(slot).squaredNorm();
+      if (sy > 1e-10 * std::sqrt(L.S.col(slot).squaredNorm() * yy) && sy > 0) {
+        L.newest = slot;
+        L.rho(slot) = 1.0 / sy;
+        L.gamma = sy / yy;
+        L.stored = std::min(L.stored + 1, mm);
+      } else if (L.stored == mm) {
+        --L.stored;  // the slot held the oldest pair, now overwritten: drop it
+      }
+      const double f_old = f;
+      L.x.swap(L.x_new);
+      L.g.swap(L.g_new);
+      f = f_new;
+      parts = p_new;
+      ++iterations;
+      if (L.g.lpNorm<Eigen::Infinity>() < opt.inner_tol) break;
+      if (opt.inner_f_tol > 0 && f_old - f < opt.inner_f_tol * std::max(1.0, std::abs(f))) break;
+    }
   }
-  s.Y = Eigen::Map<const RowMat3>(x.data(), n, 3);
-  return r.iterations;
+  s.shell.unfreeze_mask();
+  if (!L.x.allFinite() || !std::isfinite(f)) {  // never hand on NaN: keep the previous Y
+    L.x = L.x0;
+    obj(L.x, L.g);
+    parts = obj.last;
+    L.reset();
+  }
+  s.Y = Eigen::Map<const RowMat3>(L.x.data(), n, 3);
+  return iterations;
 }
 
 // Deterministic tiny perturbation of vertices of collapsed triangles of Y: at an exactly
@@ -336,14 +477,14 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
     projection_step(a, b, beta, gamma, bij);  // P step
     it.time_projection += seconds_since(t0);
     t0 = Clock::now();
-    it.inner_iterations += deformation_step(a, b, beta, gamma, bij, opt, pa);  // Y step
+    it.inner_iterations += deformation_step(a, b, beta, gamma, bij, opt, pa, it.inner_evaluations);  // Y step
     it.time_deformation += seconds_since(t0);
     if (bij) {
       t0 = Clock::now();
       projection_step(b, a, beta, gamma, bij);  // Q step
       it.time_projection += seconds_since(t0);
       t0 = Clock::now();
-      it.inner_iterations += deformation_step(b, a, beta, gamma, bij, opt, pb);  // Y~ step
+      it.inner_iterations += deformation_step(b, a, beta, gamma, bij, opt, pb, it.inner_evaluations);  // Y~ step
       it.time_deformation += seconds_since(t0);
       it.deformation = pa.deformation + pb.deformation;
       it.mismatch = pa.mismatch + pb.mismatch;
@@ -420,12 +561,14 @@ double elastic_energy(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F,
   EnergyParts pa, pb;
   Eigen::VectorXd x = Eigen::Map<const Eigen::VectorXd>(a.Y.data(), a.Y.size()), g(x.size());
   DeformationObjective oa(a, b, beta, gamma, bij);
-  double E = oa(x, g, &pa);
+  double E = oa(x, g);
+  pa = oa.last;
   if (gY) *gY = Eigen::Map<const RowMat3>(g.data(), a.Y.rows(), 3);
   if (bij) {
     Eigen::VectorXd xt = Eigen::Map<const Eigen::VectorXd>(b.Y.data(), b.Y.size()), gt(xt.size());
     DeformationObjective ob(b, a, beta, gamma, bij);
-    E += ob(xt, gt, &pb);
+    E += ob(xt, gt);
+    pb = ob.last;
     if (gYt) *gYt = Eigen::Map<const RowMat3>(gt.data(), b.Y.rows(), 3);
   }
   if (terms) {

@@ -8,14 +8,13 @@
 #include <cmath>
 #include <limits>
 #include <tuple>
+#include <vector>
 
 namespace shapemap {
 
 namespace {
 using V3 = Eigen::Vector3d;
 
-// Below this many elements a loop runs serially (a parallel region costs more than it saves).
-constexpr int kParallelMin = 4096;
 
 inline V3 row3(const double* y, int i) { return V3(y[3 * i], y[3 * i + 1], y[3 * i + 2]); }
 }  // namespace
@@ -130,14 +129,26 @@ ShellEnergy::ShellEnergy(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F,
       vf_face_[p] = f;
       vf_corner_[p] = j;
     }
-  fN_.resize(m, 3);
-  fNlen_.resize(m);
   fdeg_.resize(m);
-  fgrad_.resize(m, 9);
+  fNlen_.resize(m);
+  fn_.resize(3 * size_t(m));
+  fmem_.resize(6 * size_t(m));
   fenergy_.resize(m);
-  eenergy_.resize(k);
-  egN_.resize(k, 6);
-  eadm_.resize(k);
+  fbend_.resize(m);
+  fadm_.resize(m);
+  // packed per-face edge slots for the evaluation loop
+  slots_.assign(3 * size_t(m), Slot{});
+  for (int f = 0; f < m; ++f)
+    for (int j = 0; j < 3; ++j) {
+      const int e = face_edge_(f, j);
+      if (e < 0) continue;
+      Slot& q = slots_[3 * size_t(f) + j];
+      q.e = e;
+      q.side = face_side_(f, j);
+      q.h = E_(e, 1 - q.side);
+      q.cosr = cos_ref_(e);
+      q.w = weight_(e);
+    }
 }
 
 double ShellEnergy::evaluate(const double* y, double* grad, ShellEnergyTerms* terms) const {
@@ -146,23 +157,27 @@ double ShellEnergy::evaluate(const double* y, double* grad, ShellEnergyTerms* te
                eps = opt_.log_eps, tol = opt_.degenerate_tol;
   const bool want_grad = grad != nullptr;
   const bool do_bend = eta != 0.0 && k > 0;
+  const bool frozen = frozen_;
+  const double inf = std::numeric_limits<double>::infinity();
 
-  // 1. Faces: normals, degeneracy, membrane energy and gradient (Eq. 7).
-#pragma omp parallel for schedule(static) if (m > kParallelMin)
-  for (int f = 0; f < m; ++f) {
-    const int i0 = F_(f, 0), i1 = F_(f, 1), i2 = F_(f, 2);
-    const V3 x0 = row3(y, i0), x1 = row3(y, i1), x2 = row3(y, i2);
+  // Pass 1, per face f: normal N_f (unit normal and length stored), degeneracy, membrane
+  // energy and gradient (Eq. 7) w.r.t. the edge vectors e1 = x1 - x0, e2 = x2 - x0.
+  auto pass1 = [&](int f) {
+    const V3 x0 = row3(y, F_(f, 0)), x1 = row3(y, F_(f, 1)), x2 = row3(y, F_(f, 2));
     const V3 e1 = x1 - x0, e2 = x2 - x0;
     const V3 N = e1.cross(e2);
     const double Nlen = N.norm();
-    fN_.row(f) = N.transpose();
-    fNlen_(f) = Nlen;
     fdeg_[f] = !(Nlen > tol * nref_(f)) || nref_(f) == 0;
+    fNlen_[f] = Nlen;
+    const V3 n = Nlen > 0 ? V3(N / Nlen) : V3::Zero();
+    double* nf = fn_.data() + 3 * size_t(f);
+    nf[0] = n(0), nf[1] = n(1), nf[2] = n(2);
+    double* gm = fmem_.data() + 6 * size_t(f);
     const double a = area_(f);
     if (a == 0) {
       fenergy_(f) = 0;
-      if (want_grad) fgrad_.row(f).setZero();
-      continue;
+      if (want_grad) std::fill(gm, gm + 6, 0.0);
+      return;
     }
     const double h00 = ginv_(f, 0), h01 = ginv_(f, 1), h11 = ginv_(f, 2);
     const double g00 = e1.dot(e1), g01 = e1.dot(e2), g11 = e2.dot(e2);
@@ -173,85 +188,121 @@ double ShellEnergy::evaluate(const double* y, double* grad, ShellEnergyTerms* te
     if (want_grad) {
       // d t/d e1 = 2(h00 e1 + h01 e2), d t/d e2 = 2(h01 e1 + h11 e2)
       // d d/d e1 = 2 (e2 x N)/det g^, d d/d e2 = 2 (N x e1)/det g^
-      const double s = 2 * a * alpha;
-      const V3 g1 = s * (Wt * (h00 * e1 + h01 * e2) + Wd * e2.cross(N) / detg_(f));
-      const V3 g2 = s * (Wt * (h01 * e1 + h11 * e2) + Wd * N.cross(e1) / detg_(f));
-      fgrad_.block<1, 3>(f, 0) = (-g1 - g2).transpose();
-      fgrad_.block<1, 3>(f, 3) = g1.transpose();
-      fgrad_.block<1, 3>(f, 6) = g2.transpose();
+      const double s = 2 * a * alpha, sd = Wd / detg_(f);
+      const V3 g1 = s * (Wt * (h00 * e1 + h01 * e2) + sd * e2.cross(N));
+      const V3 g2 = s * (Wt * (h01 * e1 + h11 * e2) + sd * N.cross(e1));
+      gm[0] = g1(0), gm[1] = g1(1), gm[2] = g1(2);
+      gm[3] = g2(0), gm[4] = g2(1), gm[5] = g2(2);
     }
-  }
-
-  // 2. Edges: bending energy (Eq. 9) on admissible edges, dE/dN per side.
-  if (do_bend) {
-#pragma omp parallel for schedule(static) if (k > kParallelMin)
-    for (int e = 0; e < k; ++e) {
-      const int f0 = E_(e, 0), f1 = E_(e, 1);
-      const bool adm = frozen_ ? frozen_adm_[e] != 0 : !(fdeg_[f0] || fdeg_[f1]);
-      const double l0 = fNlen_(f0), l1 = fNlen_(f1);
-      if (!adm) {
-        eadm_[e] = 0;
-        eenergy_(e) = 0;
-        continue;
-      }
-      eadm_[e] = 1;
-      if (!(l0 > 0) || !(l1 > 0)) {  // frozen-admissible but collapsed: reject the point
-        eenergy_(e) = std::numeric_limits<double>::infinity();
-        if (want_grad) egN_.row(e).setZero();
-        continue;
-      }
-      const V3 n0 = fN_.row(f0).transpose() / l0, n1 = fN_.row(f1).transpose() / l1;
-      const double c = n0.dot(n1);
-      const double delta = cos_ref_(e) - c;
-      eenergy_(e) = weight_(e) * delta * delta;
-      if (want_grad) {
-        const double dEdc = -2 * eta * weight_(e) * delta;
-        egN_.block<1, 3>(e, 0) = (dEdc * (n1 - c * n0) / l0).transpose();
-        egN_.block<1, 3>(e, 3) = (dEdc * (n0 - c * n1) / l1).transpose();
-      }
-    }
-    // 3. Faces: gather dE/dN over the face's edges, push to its vertices.
-    if (want_grad) {
-#pragma omp parallel for schedule(static) if (m > kParallelMin)
-      for (int f = 0; f < m; ++f) {
-        V3 G = V3::Zero();
-        bool any = false;
-        for (int j = 0; j < 3; ++j) {
-          const int e = face_edge_(f, j);
-          if (e < 0 || !eadm_[e]) continue;
-          G += egN_.block<1, 3>(e, 3 * face_side_(f, j)).transpose();
+  };
+  // Pass 2, per face f: the bending terms (Eq. 9) of its interior edges from the stored
+  // normals; the edge's energy and admissibility are written by its side-0 face only,
+  // dE/dN_f is pushed to f's corners together with the membrane gradient.
+  // out: the 9 corner gradients (corner-major).
+  auto pass2 = [&](int f, double* out) {
+    const double* gm = fmem_.data() + 6 * size_t(f);
+    V3 g1(gm[0], gm[1], gm[2]), g2(gm[3], gm[4], gm[5]);
+    V3 g0 = -g1 - g2;
+    if (do_bend) {
+      const bool degf = fdeg_[f];
+      const double Nlen = fNlen_[f];
+      const V3 nf(fn_[3 * size_t(f)], fn_[3 * size_t(f) + 1], fn_[3 * size_t(f) + 2]);
+      V3 G = V3::Zero();  // eta dW_bnd/dN_f
+      bool any = false;
+      double ebend = 0;  // bending energy of the edges whose side-0 face is f
+      int nadm = 0;
+      const Slot* sl = slots_.data() + 3 * size_t(f);
+      for (int j = 0; j < 3; ++j) {
+        const Slot& q = sl[j];
+        if (q.e < 0) continue;
+        const int h = q.h;  // the neighbour across edge q.e
+        const bool adm = frozen ? frozen_adm_[q.e] != 0 : !(degf || fdeg_[h]);
+        if (!adm) continue;
+        if (q.side == 0) ++nadm;
+        if (!(Nlen > 0) || !(fNlen_[h] > 0)) {  // frozen-admissible but collapsed: reject
+          if (q.side == 0) ebend = inf;
+          continue;
+        }
+        const V3 nh(fn_[3 * size_t(h)], fn_[3 * size_t(h) + 1], fn_[3 * size_t(h) + 2]);
+        const double c = q.side == 0 ? nf.dot(nh) : nh.dot(nf);
+        const double delta = q.cosr - c;
+        if (q.side == 0) ebend += q.w * delta * delta;
+        if (want_grad) {
+          const double dEdc = -2 * eta * q.w * delta;
+          G += (dEdc / Nlen) * (nh - c * nf);
           any = true;
         }
-        if (!any) continue;
-        const V3 x0 = row3(y, F_(f, 0)), x1 = row3(y, F_(f, 1)), x2 = row3(y, F_(f, 2));
-        const V3 e1 = x1 - x0, e2 = x2 - x0;
+      }
+      fbend_[f] = ebend;
+      fadm_[f] = char(nadm);
+      if (any) {
         // N = e1 x e2: G.dN = de1.(e2 x G) + de2.(G x e1)
-        const V3 g1 = e2.cross(G), g2 = G.cross(e1);
-        fgrad_.block<1, 3>(f, 0) -= (g1 + g2).transpose();
-        fgrad_.block<1, 3>(f, 3) += g1.transpose();
-        fgrad_.block<1, 3>(f, 6) += g2.transpose();
+        const V3 x0 = row3(y, F_(f, 0));
+        const V3 e1 = row3(y, F_(f, 1)) - x0, e2 = row3(y, F_(f, 2)) - x0;
+        const V3 b1 = e2.cross(G), b2 = G.cross(e1);
+        g0 -= b1 + b2;
+        g1 += b1;
+        g2 += b2;
+      }
+    }
+    if (want_grad)
+      for (int c = 0; c < 3; ++c) {
+        out[c] = g0(c);
+        out[3 + c] = g1(c);
+        out[6 + c] = g2(c);
+      }
+  };
+
+  if (m < opt_.parallel_min_faces) {
+    // Serial: corner gradients scattered in increasing face order, which adds the same
+    // terms in the same order as the parallel gather below (bitwise identical results).
+    for (int f = 0; f < m; ++f) pass1(f);
+    if (want_grad || do_bend) {
+      if (want_grad) std::fill(grad, grad + 3 * size_t(n_), 0.0);
+      double out[9];
+      for (int f = 0; f < m; ++f) {
+        pass2(f, out);
+        if (want_grad)
+          for (int c = 0; c < 3; ++c) {
+            double* gv = grad + 3 * size_t(F_(f, c));
+            gv[0] += out[3 * c];
+            gv[1] += out[3 * c + 1];
+            gv[2] += out[3 * c + 2];
+          }
+      }
+    }
+  } else {
+    // Parallel: one region, faces (two passes) then a per-vertex gather of the corner
+    // gradients in increasing face order; each element writes only its own slots.
+    if (want_grad && fgrad_.size() != 9 * size_t(m)) fgrad_.resize(9 * size_t(m));
+#pragma omp parallel
+    {
+#pragma omp for schedule(static)
+      for (int f = 0; f < m; ++f) pass1(f);
+      if (want_grad || do_bend) {
+        double out[9];
+#pragma omp for schedule(static)
+        for (int f = 0; f < m; ++f) pass2(f, want_grad ? fgrad_.data() + 9 * size_t(f) : out);
+      }
+      if (want_grad) {
+#pragma omp for schedule(static)
+        for (int i = 0; i < n_; ++i) {
+          double gx = 0, gy = 0, gz = 0;
+          for (int p = vf_start_[i]; p < vf_start_[i + 1]; ++p) {
+            const double* fg = fgrad_.data() + 9 * size_t(vf_face_[p]) + 3 * vf_corner_[p];
+            gx += fg[0];
+            gy += fg[1];
+            gz += fg[2];
+          }
+          grad[3 * i] = gx;
+          grad[3 * i + 1] = gy;
+          grad[3 * i + 2] = gz;
+        }
       }
     }
   }
 
-  // 4. Vertices: gather per-face gradients in a fixed order.
-  if (want_grad) {
-#pragma omp parallel for schedule(static) if (n_ > kParallelMin)
-    for (int i = 0; i < n_; ++i) {
-      double gx = 0, gy = 0, gz = 0;
-      for (int p = vf_start_[i]; p < vf_start_[i + 1]; ++p) {
-        const int f = vf_face_[p], c = vf_corner_[p];
-        gx += fgrad_(f, 3 * c);
-        gy += fgrad_(f, 3 * c + 1);
-        gz += fgrad_(f, 3 * c + 2);
-      }
-      grad[3 * i] = gx;
-      grad[3 * i + 1] = gy;
-      grad[3 * i + 2] = gz;
-    }
-  }
-
-  // 5. Serial sums (deterministic).
+  // Serial sums (deterministic).
   double mem = 0, bnd = 0;
   int adm = 0, deg = 0;
   for (int f = 0; f < m; ++f) {
@@ -259,9 +310,9 @@ double ShellEnergy::evaluate(const double* y, double* grad, ShellEnergyTerms* te
     deg += fdeg_[f] ? 1 : 0;
   }
   if (do_bend)
-    for (int e = 0; e < k; ++e) {
-      bnd += eenergy_(e);
-      adm += eadm_[e];
+    for (int f = 0; f < m; ++f) {
+      bnd += fbend_[f];
+      adm += fadm_[f];
     }
   const double total = alpha * mem + eta * bnd;
   if (terms) {

@@ -13,12 +13,14 @@ namespace shapemap {
 std::pair<BarycentricMap, BarycentricMap> surface_map_for_volumes(const TriMesh& SA,
                                                                   const TriMesh& SB,
                                                                   const ProgressCallback& progress,
-                                                                  std::string* used) {
+                                                                  std::string* used,
+                                                                  bool elastic_refinement) {
   BIMOptions bo;
   bo.symmetric = true;
   BIMResult bim = blended_intrinsic_maps(SA, SB, bo, progress);
   std::pair<BarycentricMap, BarycentricMap> maps{bim.AB.map, bim.BA.map};
   if (used) *used = "BIM";
+  if (!elastic_refinement) return maps;
   ElasticOptions eo;
   eo.progress = progress;
   try {

@@ -21,6 +21,154 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
+
+// Local untangling with the boundary fixed (post-step, docs/methods.md): an interior
+// vertex of a folded tet (or, when that stalls, of a growing neighbourhood) is moved
+// towards the mean of its neighbours (t = 1, 1/2, 1/4, 1/8) when that lowers the number of
+// non-positive tets around it, or keeps it and raises their smallest volume (Gauss-Seidel
+// sweeps). f n×3, rows >= nI are boundary vertices: they move only on the unit sphere
+// (towards the normalized mean of their boundary neighbours, re-normalized), which is
+// needed for tets with all four vertices on the boundary. Neighbourhoods could grow by
+// rings when stalled; kMaxUntangleRings = 0 (measured: growing them only smooths away
+// volume accuracy, e.g. spot E_I 0.018 -> 0.023, without removing more folds).
+// Returns the folds left.
+constexpr int kMaxUntangleRings = 0;
+int untangle_interior(const Eigen::MatrixXi& T, int nI, int max_rounds, Eigen::MatrixXd& f) {
+  const int n = int(f.rows());
+  std::vector<std::vector<int>> vt(n), nb(n);
+  for (Eigen::Index t = 0; t < T.rows(); ++t)
+    for (int c = 0; c < 4; ++c) {
+      vt[T(t, c)].push_back(int(t));
+      for (int d = 0; d < 4; ++d)
+        if (d != c) nb[T(t, c)].push_back(T(t, d));
+    }
+  for (auto& v : nb) {
+    std::sort(v.begin(), v.end());
+    v.erase(std::unique(v.begin(), v.end()), v.end());
+  }
+  auto vol = [&](int t) {
+    const Eigen::Vector3d a = f.row(T(t, 0)), b = f.row(T(t, 1)), c = f.row(T(t, 2)), d = f.row(T(t, 3));
+    return (b - a).dot((c - a).cross(d - a)) / 6.0;
+  };
+  auto local = [&](int i, int& nf) {
+    nf = 0;
+    double worst = std::numeric_limits<double>::infinity();
+    for (int t : vt[i]) {
+      const double v = vol(t);
+      if (!(v > 0)) ++nf;
+      worst = std::min(worst, v);
+    }
+    return worst;
+  };
+  auto count = [&] {
+    int k = 0;
+    for (Eigen::Index t = 0; t < T.rows(); ++t) k += !(vol(int(t)) > 0);
+    return k;
+  };
+  int folded = count();
+  int rings = 0, stall = 0;
+  for (int round = 0; round < max_rounds && folded > 0; ++round) {
+    std::vector<char> mark(n, 0);
+    for (Eigen::Index t = 0; t < T.rows(); ++t)
+      if (!(vol(int(t)) > 0))
+        for (int c = 0; c < 4; ++c) mark[T(t, c)] = 1;
+    for (int r = 0; r < rings; ++r) {
+      std::vector<char> m2 = mark;
+      for (int i = 0; i < n; ++i)
+        if (mark[i])
+          for (int j : nb[i]) m2[j] = 1;
+      mark.swap(m2);
+    }
+    for (int i = 0; i < n; ++i) {
+      if (!mark[i]) continue;
+      const bool bnd = i >= nI;
+      Eigen::RowVector3d c = Eigen::RowVector3d::Zero();
+      int k = 0;
+      for (int j : nb[i])
+        if (!bnd || j >= nI) {
+          c += f.row(j);
+          ++k;
+        }
+      if (k == 0) continue;
+      c /= double(k);
+      if (bnd && !(c.norm() > 0)) continue;
+      const Eigen::RowVector3d old = f.row(i);
+      int best_nf;
+      double best_w = local(i, best_nf);
+      if (best_nf == 0 && rings == 0) continue;  // only vertices of folded tets move
+      Eigen::RowVector3d best = old;
+      for (double s = 1; s > 0.1; s *= 0.5) {
+        f.row(i) = (1 - s) * old + s * c;
+        if (bnd) f.row(i).normalize();
+        int nf;
+        const double w = local(i, nf);
+        if (nf < best_nf || (nf == best_nf && w > best_w)) {
+          best_nf = nf;
+          best_w = w;
+          best = f.row(i);
+        }
+      }
+      f.row(i) = best;
+      // Then max-min ascent (Freitag & Plassmann 2000, local optimization-based
+      // untangling): move along the volume gradient of the smallest incident tet while
+      // the smallest incident volume increases.
+      double scale = 0;
+      for (int j : nb[i]) scale = std::max(scale, (f.row(j) - f.row(i)).norm());
+      for (int it = 0; it < 30 && best_w <= 0; ++it) {
+        int tmin = -1;
+        double vmin = std::numeric_limits<double>::infinity();
+        for (int t : vt[i]) {
+          const double v = vol(t);
+          if (v < vmin) {
+            vmin = v;
+            tmin = t;
+          }
+        }
+        int c = 0;
+        while (T(tmin, c) != i) ++c;
+        // d vol / d f_i = (1/6) (f_b - f_a) x (f_c - f_a) for the opposite face (a, b, c)
+        // ordered so that the volume is (f_i - f_a) . ((f_b - f_a) x (f_c - f_a)) / 6 > 0.
+        static const int opp[4][3] = {{1, 3, 2}, {0, 2, 3}, {0, 3, 1}, {0, 1, 2}};
+        const Eigen::Vector3d fa = f.row(T(tmin, opp[c][0])), fb = f.row(T(tmin, opp[c][1])),
+                              fc = f.row(T(tmin, opp[c][2]));
+        Eigen::Vector3d d = (fb - fa).cross(fc - fa);
+        if (bnd) {
+          const Eigen::Vector3d y = f.row(i);
+          d -= d.dot(y) * y;
+        }
+        if (!(d.norm() > 0)) break;
+        d.normalize();
+        const Eigen::RowVector3d o = f.row(i);
+        bool moved = false;
+        for (double st = 0.5 * scale; st > 1e-6 * scale; st *= 0.5) {
+          f.row(i) = o + st * d.transpose();
+          if (bnd) f.row(i).normalize();
+          int nf;
+          const double w = local(i, nf);
+          if (nf < best_nf || (nf == best_nf && w > best_w)) {
+            best_nf = nf;
+            best_w = w;
+            moved = true;
+            break;
+          }
+        }
+        if (!moved) {
+          f.row(i) = o;
+          break;
+        }
+      }
+    }
+    const int fn = count();
+    if (fn >= folded && ++stall >= 2) {
+      if (rings >= kMaxUntangleRings) break;
+      ++rings;
+      stall = 0;
+    }
+    folded = fn;
+  }
+  return folded;
+}
+
 }  // namespace
 
 // ------------------------------------------------------------ SphericalBallEnergy
@@ -160,6 +308,8 @@ BallParamResult ball_parameterization(const TetMesh& mesh, const BallParamOption
   const SphereParamResult sph = spherical_area_preserving_map(tb.surface, {}, opt.sphere, progress);
   res.seconds_sphere = since(t0);
   res.sphere_folded_faces = sph.folded_faces;
+  res.sphere_area_distortion_mean = sph.area_distortion_mean;
+  res.sphere_area_distortion_max = sph.area_distortion_max;
 
   // Steps 7-13: VSEM fixed point.
   VsemOptions vo;
@@ -194,17 +344,40 @@ BallParamResult ball_parameterization(const TetMesh& mesh, const BallParamOption
   // Steps 13-16: L_V(f^(0)), preconditioner blocks, Cholesky factors (once).
   t0 = Clock::now();
   Eigen::SparseMatrix<double> L;
-  energy.stretch_laplacian(fp, L);
   SparseCholesky cholI, cholB;
-  if (nI > 0) {
-    Eigen::SparseMatrix<double> LII = L.topLeftCorner(nI, nI);
-    cholI.compute(LII);
-  }
-  {
+  // L_V(f) is positive definite while the image tets are well shaped; folded or nearly
+  // flat image tets can make their modified cotangent weights break that. Then the
+  // preconditioner falls back to L_V(e) of the (scaled) input, which is only a
+  // preconditioner choice: the energy and its gradient are unchanged.
+  auto factor_blocks = [&](const Eigen::MatrixXd& at, bool first) {
+    energy.stretch_laplacian(at, L);
+    if (nI > 0) {
+      Eigen::SparseMatrix<double> LII = L.topLeftCorner(nI, nI);
+      if (first) cholI.compute(LII); else cholI.factorize(LII);
+    }
     Eigen::SparseMatrix<double> LBB = L.bottomRightCorner(nB, nB);
-    cholB.compute(LBB);
+    if (first) cholB.compute(LBB); else cholB.factorize(LBB);
+  };
+  try {
+    factor_blocks(fp, true);
+  } catch (const Error&) {
+    res.preconditioner_fallbacks++;
+    factor_blocks(Vp, true);
   }
   res.seconds_factor = since(t0);
+  // Re-factor the preconditioner blocks at the current map (same pattern).
+  auto refactor = [&](const Eigen::VectorXd& xx) {
+    const auto tf = Clock::now();
+    Eigen::MatrixXd fc;
+    sbe.to_map(xx, fc);
+    try {
+      factor_blocks(fc, false);
+    } catch (const Error&) {
+      res.preconditioner_fallbacks++;
+      factor_blocks(Vp, false);
+    }
+    res.seconds_factor += since(tf);
+  };
 
   // Step 17: spherical coordinates, in a pole-avoiding frame.
   auto choose_frame = [&](const Eigen::MatrixXd& f, Eigen::VectorXd& s_phi) {
@@ -260,123 +433,171 @@ BallParamResult ball_parameterization(const TetMesh& mesh, const BallParamOption
   int folds = sbe.inverted_tets(x);
   res.inverted_vsem = folds;
   res.energy_vsem = E;
-  precondition(g, h);
-  double lambda = g.dot(h);  // step 24
-  p = -h;                    // step 25
-  double alpha_prev = opt.initial_step;
-  bool steepest = true;  // p == -M^{-1} g
-  for (int k = 0; k < opt.max_iterations; ++k) {
-    double dphi0 = g.dot(p);
-    if (!(dphi0 < 0)) {  // not a descent direction: restart along -M^{-1} g
-      p = -h;
-      dphi0 = -lambda;
-      ++res.restarts;
-      steepest = true;
-      if (!(dphi0 < 0)) break;  // zero gradient
-    }
-    // Step 32: alpha by the quadratic model through Phi(0), Phi'(0), Phi(alpha_prev) (Eq. 17).
-    double alpha = -1;
-    {
-      xn = x + alpha_prev * p;
-      const double Ea = energy_only(xn);
-      const double denom = 2 * (Ea - E - alpha_prev * dphi0);
-      if (std::isfinite(Ea) && denom > 0) alpha = -alpha_prev * alpha_prev * dphi0 / denom;
-    }
-    double En = std::numeric_limits<double>::infinity();
-    bool accepted = false;
-    if (alpha > 0 && std::isfinite(alpha)) {
-      xn = x + alpha * p;
-      En = objective(xn, gn);
-      accepted = En < E;
-    }
-    if (accepted) {
-      ++res.quadratic_steps;
-    } else {
-      // Fallback: strong Wolfe line search (Eq. 18), from the model step if it was usable.
-      const double a0 = (alpha > 0 && std::isfinite(alpha)) ? alpha : alpha_prev;
-      LineSearchResult ls = strong_wolfe_search(objective, x, E, g, p, a0, opt.c1, opt.c2,
-                                                opt.max_line_search, xn, gn);
-      if (!ls.ok || !(ls.f < E)) {
-        if (steepest) break;  // no progress even along -M^{-1} g
+  // The CG loop (steps 18-38); `guard` = prevent_new_folds. Returns on convergence,
+  // stall or max_iter; x, g, E, folds hold the last iterate.
+  auto cg_loop = [&](int max_iter, bool guard) {
+    folds = sbe.inverted_tets(x);
+    precondition(g, h);
+    double lambda = g.dot(h);  // step 24
+    p = -h;                    // step 25
+    double alpha_prev = opt.initial_step;
+    bool steepest = true;  // p == -M^{-1} g
+    for (int k = 0; k < max_iter; ++k) {
+      double dphi0 = g.dot(p);
+      if (!(dphi0 < 0)) {  // not a descent direction: restart along -M^{-1} g
         p = -h;
+        dphi0 = -lambda;
         ++res.restarts;
         steepest = true;
-        continue;
+        if (!(dphi0 < 0)) break;  // zero gradient
       }
-      alpha = ls.alpha;
-      En = ls.f;
-      ++res.wolfe_steps;
-    }
-    // Optional guard: no step may increase the number of inverted tets.
-    if (opt.prevent_new_folds) {
-      int fn = sbe.inverted_tets(xn);
-      int tries = 0;
-      while (fn > folds && tries < 30) {
-        alpha *= 0.5;
+      // Step 32: alpha by the quadratic model through Phi(0), Phi'(0), Phi(alpha_prev) (Eq. 17).
+      double alpha = -1;
+      {
+        xn = x + alpha_prev * p;
+        const double Ea = energy_only(xn);
+        const double denom = 2 * (Ea - E - alpha_prev * dphi0);
+        if (std::isfinite(Ea) && denom > 0) alpha = -alpha_prev * alpha_prev * dphi0 / denom;
+      }
+      double En = std::numeric_limits<double>::infinity();
+      bool accepted = false;
+      if (alpha > 0 && std::isfinite(alpha)) {
         xn = x + alpha * p;
         En = objective(xn, gn);
-        fn = sbe.inverted_tets(xn);
-        ++tries;
-        ++res.fold_backtracks;
+        accepted = En < E;
+        // Optionally require the strong Wolfe conditions (Eq. 18) of the model step too.
+        if (accepted && opt.wolfe_model_step)
+          accepted = En <= E + opt.c1 * alpha * dphi0 && std::abs(gn.dot(p)) <= -opt.c2 * dphi0;
       }
-      if (fn > folds || !(En < E)) {
-        if (steepest) break;
+      if (accepted) {
+        ++res.quadratic_steps;
+      } else {
+        // Fallback: strong Wolfe line search (Eq. 18), from the model step if it was usable.
+        const double a0 = (alpha > 0 && std::isfinite(alpha)) ? alpha : alpha_prev;
+        LineSearchResult ls = strong_wolfe_search(objective, x, E, g, p, a0, opt.c1, opt.c2,
+                                                  opt.max_line_search, xn, gn);
+        if (!ls.ok || !(ls.f < E)) {
+          if (steepest) break;  // no progress even along -M^{-1} g
+          p = -h;
+          ++res.restarts;
+          steepest = true;
+          continue;
+        }
+        alpha = ls.alpha;
+        En = ls.f;
+        ++res.wolfe_steps;
+      }
+      // Optional guard: no step may increase the number of inverted tets.
+      if (guard) {
+        int fn = sbe.inverted_tets(xn);
+        int tries = 0;
+        while (fn > folds && tries < 30) {
+          alpha *= 0.5;
+          xn = x + alpha * p;
+          En = objective(xn, gn);
+          fn = sbe.inverted_tets(xn);
+          ++tries;
+          ++res.fold_backtracks;
+        }
+        if (fn > folds || !(En < E)) {
+          if (steepest) break;
+          p = -h;
+          ++res.restarts;
+          steepest = true;
+          continue;
+        }
+        folds = fn;
+      }
+      // Steps 33-37.
+      const double delta = E - En;
+      x.swap(xn);
+      g.swap(gn);
+      E = En;
+      alpha_prev = alpha;
+      ++res.iterations;
+      res.energies.push_back(E);
+      report(progress, "ball/cg", double(k + 1) / std::max(1, max_iter));
+      if (delta < opt.tolerance) {
+        res.converged = true;
+        break;
+      }
+      // Pole guard: a boundary vertex close to a pole of the frame -> new frame, restart.
+      bool new_frame = false;
+      if (opt.rotate_frame) {
+        double smin = 1;
+        for (int b = 0; b < nB; ++b) smin = std::min(smin, std::abs(std::sin(x(3 * nI + b))));
+        if (smin < opt.pole_guard * s_min_chart) {
+          Eigen::MatrixXd f;
+          sbe.to_map(x, f);
+          x = choose_frame(f, s_phi);
+          s_min_chart = s_phi.minCoeff();
+          E = objective(x, g);
+          ++res.frame_rotations;
+          new_frame = true;
+        }
+      }
+      // Steps 22, 27-30: h = M^{-1} g, beta = lambda / lambda_0 (Eq. 16c), p = -h + beta p.
+      precondition(g, h);
+      const double lambda0 = lambda;
+      lambda = g.dot(h);
+      if (opt.preconditioner_refresh > 0 && (k + 1) % opt.preconditioner_refresh == 0) {
+        refactor(x);
+        new_frame = true;  // restart: M changed
+        ++res.preconditioner_refreshes;
+        precondition(g, h);
+        lambda = g.dot(h);
+      }
+      if (new_frame) {
         p = -h;
         ++res.restarts;
         steepest = true;
-        continue;
-      }
-      folds = fn;
-    }
-    // Steps 33-37.
-    const double delta = E - En;
-    x.swap(xn);
-    g.swap(gn);
-    E = En;
-    alpha_prev = alpha;
-    res.iterations = k + 1;
-    res.energies.push_back(E);
-    report(progress, "ball/cg", double(k + 1) / opt.max_iterations);
-    if (delta < opt.tolerance) {
-      res.converged = true;
-      break;
-    }
-    // Pole guard: a boundary vertex close to a pole of the frame -> new frame, restart.
-    bool new_frame = false;
-    if (opt.rotate_frame) {
-      double smin = 1;
-      for (int b = 0; b < nB; ++b) smin = std::min(smin, std::abs(std::sin(x(3 * nI + b))));
-      if (smin < opt.pole_guard * s_min_chart) {
-        Eigen::MatrixXd f;
-        sbe.to_map(x, f);
-        x = choose_frame(f, s_phi);
-        s_min_chart = s_phi.minCoeff();
-        E = objective(x, g);
-        ++res.frame_rotations;
-        new_frame = true;
+      } else {
+        const double beta = lambda / lambda0;
+        p = -h + beta * p;
+        steepest = false;
       }
     }
-    // Steps 22, 27-30: h = M^{-1} g, beta = lambda / lambda_0 (Eq. 16c), p = -h + beta p.
-    precondition(g, h);
-    const double lambda0 = lambda;
-    lambda = g.dot(h);
-    if (new_frame) {
-      p = -h;
-      ++res.restarts;
-      steepest = true;
-    } else {
-      const double beta = lambda / lambda0;
-      p = -h + beta * p;
-      steepest = false;
-    }
-  }
+  };
+  cg_loop(opt.max_iterations, opt.prevent_new_folds);
+
   res.seconds_cg = since(t_cg);
   res.cpu_seconds_cg = double(std::clock() - c_cg) / CLOCKS_PER_SEC;
-  res.inverted_final = sbe.inverted_tets(x);
-  res.energy_final = E;
-
   Eigen::MatrixXd f;
   sbe.to_map(x, f);
+  res.inverted_cg = sbe.inverted_tets(x);
+  res.energy_cg = E;
+  // Post-step (docs/methods.md): local untangling of the remaining folded tets, then CG
+  // polishing in which no step may increase the number of folded tets, then untangling
+  // again. Each stage is kept only if it does not increase the fold count.
+  if (opt.untangle_rounds > 0 && res.inverted_cg > 0) {
+    const auto t_post = Clock::now();
+    Eigen::MatrixXd fu = f;
+    if (untangle_interior(Tp, nI, opt.untangle_rounds, fu) < res.inverted_cg) {
+      f.swap(fu);
+      if (opt.polish_iterations > 0) {
+        x = sbe.from_map(f);
+        E = objective(x, g);
+        const int it0 = res.iterations;
+        cg_loop(opt.polish_iterations, true);
+        res.polish_iterations = res.iterations - it0;
+        sbe.to_map(x, f);
+        fu = f;
+        untangle_interior(Tp, nI, opt.untangle_rounds, fu);
+        Eigen::VectorXd v0, v1;
+        energy.image_volumes(f, v0);
+        energy.image_volumes(fu, v1);
+        if ((v1.array() <= 0).count() < (v0.array() <= 0).count()) f.swap(fu);
+      }
+      E = energy.energy(f);
+    }
+    res.seconds_post = since(t_post);
+  }
+  {
+    Eigen::VectorXd vol;
+    energy.image_volumes(f, vol);
+    res.inverted_final = int((vol.array() <= 0).count());
+  }
+  res.energy_final = E;
   res.f.resize(n, 3);
   for (int i = 0; i < n; ++i) res.f.row(i) = f.row(perm(i));
   report(progress, "ball/cg", 1.0);

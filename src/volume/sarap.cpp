@@ -8,13 +8,98 @@
 
 namespace shapemap {
 
+namespace {
+// Signed polar rotation of a 3x3 M: R = argmax_{R in SO(3)} tr(R^T M) and lambda = that max
+// (= s1 + s2 + sign(det M) s3, the sum of the signed singular values), by the largest
+// eigenvalue of Horn's 4x4 quaternion matrix (Newton on its characteristic polynomial,
+// Theobald 2005) and its eigenvector from the adjugate. Returns false when the largest
+// eigenvalue is not well separated (then the caller uses the SVD).
+inline bool signed_polar_qcp(const Eigen::Matrix3d& M, Eigen::Matrix3d& R, double& lambda) {
+  const double Sxx = M(0, 0), Sxy = M(0, 1), Sxz = M(0, 2), Syx = M(1, 0), Syy = M(1, 1),
+               Syz = M(1, 2), Szx = M(2, 0), Szy = M(2, 1), Szz = M(2, 2);
+  Eigen::Matrix4d N;
+  N << Sxx + Syy + Szz, Szy - Syz, Sxz - Szx, Syx - Sxy,
+       Szy - Syz, Sxx - Syy - Szz, Sxy + Syx, Szx + Sxz,
+       Sxz - Szx, Sxy + Syx, -Sxx + Syy - Szz, Syz + Szy,
+       Syx - Sxy, Szx + Sxz, Syz + Szy, -Sxx - Syy + Szz;
+  const double s2 = M.squaredNorm();
+  if (!(s2 > 1e-200 && s2 < 1e200)) return false;
+  const Eigen::Matrix4d N2 = N * N;
+  const double p2 = N2.trace();                 // = 4 s2
+  const double p3 = (N2.cwiseProduct(N)).sum();  // tr(N^3), N symmetric
+  const double c2 = -0.5 * p2, c1 = -p3 / 3.0, c0 = N.determinant();
+  // Newton from an upper bound of the largest root: lambda_max <= sqrt(3) ||M||_F.
+  double l = std::sqrt(3.0 * s2);
+  for (int it = 0; it < 50; ++it) {
+    const double l2 = l * l;
+    const double P = (l2 + c2) * l2 + c1 * l + c0;
+    const double dP = 4 * l2 * l + 2 * c2 * l + c1;
+    if (!(dP > 0)) break;
+    const double step = P / dP;
+    l -= step;
+    if (std::abs(step) <= 1e-15 * std::abs(l) + 1e-300) break;
+  }
+  const double l2 = l * l;
+  const double dP = 4 * l2 * l + 2 * c2 * l + c1;  // product of the gaps to the other roots
+  const double s = std::sqrt(s2);
+  if (!(dP > 1e-3 * s2 * s)) return false;  // the largest root is not well separated
+  const double P = (l2 + c2) * l2 + c1 * l + c0;
+  if (!(std::abs(P) <= 1e-11 * s2 * s2)) return false;  // Newton did not converge
+  // Eigenvector: adj(N - l I) = (prod of the gaps) q q^T, so its diagonal is proportional
+  // to q_j^2; take the column j of the largest diagonal entry (|q_j| >= 1/2).
+  Eigen::Matrix4d A = N;
+  A.diagonal().array() -= l;
+  auto cofactor = [&A](int i, int j) {  // (-1)^(i+j) det(A without row i, column j)
+    int r[3], c[3];
+    for (int a = 0, k = 0; a < 4; ++a)
+      if (a != i) r[k++] = a;
+    for (int a = 0, k = 0; a < 4; ++a)
+      if (a != j) c[k++] = a;
+    const double m =
+        A(r[0], c[0]) * (A(r[1], c[1]) * A(r[2], c[2]) - A(r[1], c[2]) * A(r[2], c[1])) -
+        A(r[0], c[1]) * (A(r[1], c[0]) * A(r[2], c[2]) - A(r[1], c[2]) * A(r[2], c[0])) +
+        A(r[0], c[2]) * (A(r[1], c[0]) * A(r[2], c[1]) - A(r[1], c[1]) * A(r[2], c[0]));
+    return ((i + j) & 1) ? -m : m;
+  };
+  double d[4];
+  int best = 0;
+  for (int j = 0; j < 4; ++j) {
+    d[j] = cofactor(j, j);
+    if (std::abs(d[j]) > std::abs(d[best])) best = j;
+  }
+  Eigen::Vector4d q;
+  for (int i = 0; i < 4; ++i) q(i) = i == best ? d[best] : cofactor(best, i);  // adj(i, best)
+  const double qn = q.norm();
+  if (!(qn > 0)) return false;
+  q /= qn;
+  const double w = q(0), x = q(1), y = q(2), z = q(3);
+  R << w * w + x * x - y * y - z * z, 2 * (x * y - w * z), 2 * (x * z + w * y),
+       2 * (x * y + w * z), w * w - x * x + y * y - z * z, 2 * (y * z - w * x),
+       2 * (x * z - w * y), 2 * (y * z + w * x), w * w - x * x - y * y + z * z;
+  lambda = l;
+  return true;
+}
+}  // namespace
+
 double arap_distortion(const Eigen::Vector3d& sigma, Eigen::Vector3d* grad) {
   Eigen::Vector3d d = sigma.array() - 1.0;
   if (grad) *grad = 2.0 * d;
   return d.squaredNorm();
 }
 
+// f_ARAP(J) = sum_j (sigma_j - 1)^2 = ||J - R||_F^2 with R = U V^T the rotation of the signed
+// SVD (the closest rotation to J), and grad f = U diag(2(sigma - 1)) V^T = 2 (J - R). R comes
+// from signed_polar_qcp when the largest eigenvalue of Horn's matrix is well separated
+// (the same R to ~1e-12, about twice as fast as the SVD); otherwise (flat tets, inverted
+// tets with |sigma_3| ~ sigma_2, non-finite input) from signed_svd3.
 double arap_distortion(const Eigen::Matrix3d& J, Eigen::Matrix3d* grad) {
+  Eigen::Matrix3d R;
+  double lambda;
+  if (signed_polar_qcp(J, R, lambda)) {
+    const Eigen::Matrix3d D = J - R;
+    if (grad) *grad = 2.0 * D;
+    return D.squaredNorm();
+  }
   SignedSVD3 s = signed_svd3(J);
   Eigen::Vector3d gs;
   double f = arap_distortion(s.S, grad ? &gs : nullptr);

@@ -9,6 +9,9 @@
 #include <chrono>
 #include <cmath>
 #include <vector>
+#include <cstdio>
+#include <cstdlib>
+static bool DBG(){static bool d=std::getenv("SPHERE_DEBUG")!=nullptr;return d;}
 
 namespace shapemap {
 
@@ -42,6 +45,24 @@ Eigen::SparseMatrix<double> weighted_cotan(const Eigen::MatrixXd& P, const Eigen
   L.setFromTriplets(trip.begin(), trip.end());
   L.makeCompressed();
   return L;
+}
+
+// The same Laplacian with every negative edge weight (positive off-diagonal entry) set to
+// zero and the diagonal re-summed: an M-matrix, so the Dirichlet solve inside the disk is a
+// convex-combination (Tutte) map and stays positive definite.
+Eigen::SparseMatrix<double> clamp_nonnegative(const Eigen::SparseMatrix<double>& L) {
+  Eigen::SparseMatrix<double> C = L;
+  Eigen::VectorXd diag = Eigen::VectorXd::Zero(C.rows());
+  for (Eigen::Index c = 0; c < C.outerSize(); ++c)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(C, c); it; ++it) {
+      if (it.row() == it.col()) continue;
+      if (it.value() > 0) it.valueRef() = 0;
+      diag(it.row()) -= it.value();
+    }
+  for (Eigen::Index c = 0; c < C.outerSize(); ++c)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(C, c); it; ++it)
+      if (it.row() == it.col()) it.valueRef() = diag(it.row());
+  return C;
 }
 
 // Flat triangle areas of P (n×3).
@@ -139,6 +160,129 @@ void solve_inner(const Eigen::SparseMatrix<double>& L, const std::vector<char>& 
     if (idx[i] >= 0) uv.row(i) = x.row(idx[i]);
 }
 
+
+// Authalic energy of unit vectors S (n×3) against target shares w (sum 1), m faces:
+// E_A = E_S / A(S) - A(S) with E_S = sum a_f^2 / w_f, a_f the flat image areas
+// (the 2-D analogue of Eq. 2a with A(e) = 1; E_A >= 0, = 0 iff area-preserving).
+// With G non-null, also the Euclidean gradient (n×3) in S, faces summed in order.
+double authalic_energy(const Eigen::MatrixXd& S, const Eigen::MatrixXi& F, const Eigen::VectorXd& w,
+                       Eigen::MatrixXd* G) {
+  const Eigen::Index m = F.rows();
+  double AS = 0, ES = 0;
+  Eigen::VectorXd a(m);
+  for (Eigen::Index f = 0; f < m; ++f) {
+    const Eigen::Vector3d p = S.row(F(f, 0)), q = S.row(F(f, 1)), r = S.row(F(f, 2));
+    a(f) = 0.5 * (q - p).cross(r - p).norm();
+    AS += a(f);
+    ES += a(f) * a(f) / w(f);
+  }
+  const double E = ES / AS - AS;
+  if (G) {
+    G->setZero(S.rows(), 3);
+    const double c2 = ES / (AS * AS) + 1;
+    for (Eigen::Index f = 0; f < m; ++f) {
+      const Eigen::Vector3d p = S.row(F(f, 0)), q = S.row(F(f, 1)), r = S.row(F(f, 2));
+      Eigen::Vector3d nrm = (q - p).cross(r - p);
+      const double l = nrm.norm();
+      if (!(l > 0)) continue;
+      nrm /= l;
+      const double c = 2 * a(f) / w(f) / AS - c2;  // d E_A / d a_f
+      G->row(F(f, 0)) += c * 0.5 * nrm.cross(r - q).transpose();
+      G->row(F(f, 1)) += c * 0.5 * nrm.cross(p - r).transpose();
+      G->row(F(f, 2)) += c * 0.5 * nrm.cross(q - p).transpose();
+    }
+  }
+  return E;
+}
+
+// Rows of X projected to the tangent planes at the unit vectors S.
+void tangent_project(const Eigen::MatrixXd& S, Eigen::MatrixXd& X) {
+  for (Eigen::Index i = 0; i < S.rows(); ++i) X.row(i) -= X.row(i).dot(S.row(i)) * S.row(i);
+}
+
+// Local untangling on the sphere: a vertex of a folded face (or, when that stalls, of a
+// growing neighbourhood of folded faces) is moved towards the normalized mean of its
+// one-ring (t = 1, 1/2, 1/4, 1/8 of the way) when that lowers the number of folded faces
+// around it (Gauss-Seidel sweeps), until no face is folded or max_rounds is reached.
+// Returns the number of folded faces left.
+int untangle_sphere(Eigen::MatrixXd& S, const Eigen::MatrixXi& F, int max_rounds) {
+  const Eigen::Index n = S.rows();
+  std::vector<std::vector<int>> nb(n), vf(n);
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int c = 0; c < 3; ++c) {
+      vf[F(f, c)].push_back(int(f));
+      nb[F(f, c)].push_back(F(f, (c + 1) % 3));
+      nb[F(f, c)].push_back(F(f, (c + 2) % 3));
+    }
+  for (auto& v : nb) {
+    std::sort(v.begin(), v.end());
+    v.erase(std::unique(v.begin(), v.end()), v.end());
+  }
+  auto orient = [&](int f) {
+    const Eigen::Vector3d a = S.row(F(f, 0)), b = S.row(F(f, 1)), c = S.row(F(f, 2));
+    return a.dot(b.cross(c));
+  };
+  // Local badness: folded incident faces, then the most negative orientation.
+  auto local = [&](int i, int& nf) {
+    nf = 0;
+    double worst = 0;
+    for (int f : vf[i]) {
+      const double o = orient(f);
+      if (!(o > 0)) {
+        ++nf;
+        worst = std::min(worst, o);
+      }
+    }
+    return worst;
+  };
+  int folded = spherical_folded_faces(S, F);
+  int rings = 0, stall = 0;
+  for (int round = 0; round < max_rounds && folded > 0; ++round) {
+    std::vector<char> mark(n, 0);
+    for (Eigen::Index f = 0; f < F.rows(); ++f)
+      if (!(orient(int(f)) > 0))
+        for (int k = 0; k < 3; ++k) mark[F(f, k)] = 1;
+    for (int r = 0; r < rings; ++r) {
+      std::vector<char> m2 = mark;
+      for (Eigen::Index i = 0; i < n; ++i)
+        if (mark[i])
+          for (int j : nb[i]) m2[j] = 1;
+      mark.swap(m2);
+    }
+    for (Eigen::Index i = 0; i < n; ++i) {
+      if (!mark[i]) continue;
+      Eigen::RowVector3d c = Eigen::RowVector3d::Zero();
+      for (int j : nb[i]) c += S.row(j);
+      if (!(c.norm() > 0)) continue;
+      c.normalize();
+      const Eigen::RowVector3d old = S.row(i);
+      int nf0;
+      const double w0 = local(int(i), nf0);
+      int best_nf = nf0;
+      double best_w = w0;
+      Eigen::RowVector3d best = old;
+      for (double t = 1; t > 0.1; t *= 0.5) {
+        S.row(i) = ((1 - t) * old + t * c).normalized();
+        int nf;
+        const double w = local(int(i), nf);
+        if (nf < best_nf || (nf == best_nf && w > best_w)) {
+          best_nf = nf;
+          best_w = w;
+          best = S.row(i);
+        }
+      }
+      S.row(i) = best;
+    }
+    const int fn = spherical_folded_faces(S, F);
+    if (fn >= folded && ++stall >= 2) {
+      ++rings;
+      stall = 0;
+    }
+    folded = fn;
+  }
+  return folded;
+}
+
 struct Stage {
   Plane uv;
   Eigen::MatrixXd S;
@@ -209,6 +353,7 @@ SphereParamResult spherical_area_preserving_map(const TriMesh& surface,
   cur.E = energy_minus_area(Lc, cur.S, F);
   cur.folded = spherical_folded_faces(cur.S, F);
   report(progress, "ball/sphere-map", 0.05);
+  if (DBG()) std::fprintf(stderr, "DBG linear: n %d m %d folded %d E %g bestq %g\n", int(n), int(m), cur.folded, cur.E, bestq);
 
   // One hemisphere-alternation step (CEM and SEM share it).
   auto step = [&](const Eigen::SparseMatrix<double>& L, double R, const Stage& from) {
@@ -229,6 +374,7 @@ SphereParamResult spherical_area_preserving_map(const TriMesh& surface,
   for (int it = 0; it < opt.conformal_iterations; ++it) {
     Stage s = step(Lc, opt.conformal_radius, cur);
     s.E = energy_minus_area(Lc, s.S, F);
+    if (DBG()) std::fprintf(stderr, "DBG cem %d: folded %d E %g\n", it, s.folded, s.E);
     if (!(s.E < cur.E) || s.folded > cur.folded) break;
     const double dE = cur.E - s.E;
     cur = std::move(s);
@@ -251,21 +397,148 @@ SphereParamResult spherical_area_preserving_map(const TriMesh& surface,
   Eigen::SparseMatrix<double> Ls = stretch_laplacian(cur.S);
   cur.E = energy_minus_area(Ls, cur.S, F);
   res.stretch_energy_initial = cur.E;
+  // The fixed-point iteration of SEM is not monotone: iterate as published, keep the
+  // fold-free iterate with the lowest authalic energy E_A, stop after 8 steps without a
+  // new best (or on the relative tolerance).
+  Stage best_stage = cur;
+  double best_EA = authalic_energy(cur.S, F, target, nullptr);
+  int since_best = 0;
   for (int it = 0; it < opt.stretch_iterations; ++it) {
-    Stage s = step(Ls, opt.stretch_radius, cur);
+    // The stretch-weighted Laplacian of a badly folded image can be indefinite: then the
+    // fixed point cannot continue, and the best iterate so far is kept.
+    Stage s;
+    try {
+      s = step(std::getenv("SPHERE_CLAMP") ? clamp_nonnegative(Ls) : Ls, opt.stretch_radius, cur);
+    } catch (const Error&) {
+      break;
+    }
     Eigen::SparseMatrix<double> Ln = stretch_laplacian(s.S);
     s.E = energy_minus_area(Ln, s.S, F);
-    if (!(s.E < cur.E) || s.folded > cur.folded) break;
-    const double rel = (cur.E - s.E) / std::max(1e-300, std::abs(cur.E));
+    if (!std::isfinite(s.E)) break;
     cur = std::move(s);
     Ls = std::move(Ln);
     res.stretch_iterations = it + 1;
     report(progress, "ball/sphere-map", 0.3 + 0.7 * (it + 1) / opt.stretch_iterations);
-    if (rel < opt.stretch_tolerance) break;
+    Eigen::MatrixXd Sn = cur.S;
+    Sn.rowwise().normalize();
+    const double EA = authalic_energy(Sn, F, target, nullptr);
+    if (DBG()) std::fprintf(stderr, "DBG sem %d: folded %d E %g EA %g\n", it, cur.folded, cur.E, EA);
+    if (cur.folded < best_stage.folded || (cur.folded == best_stage.folded && EA < best_EA)) {
+      const double rel = cur.folded < best_stage.folded ? 1.0 : (best_EA - EA) / std::max(1e-300, best_EA);
+      best_stage = cur;
+      best_EA = EA;
+      since_best = 0;
+      if (rel < opt.stretch_tolerance) break;
+    } else if (++since_best >= 8) {
+      break;
+    }
   }
+  cur = std::move(best_stage);
+  res.stretch_folded_faces = cur.folded;
   res.stretch_energy = cur.E;
   res.S = cur.S;
   res.S.rowwise().normalize();
+  // SEM may leave a few folded faces on strongly stretched parts: untangle them locally.
+  if (cur.folded > 0) untangle_sphere(res.S, F, 200);
+  if (DBG()) std::fprintf(stderr, "DBG sem best folded %d; after untangle %d\n", cur.folded, spherical_folded_faces(res.S, F));
+
+  // ---- 4. Riemannian preconditioned CG on the authalic energy (Sutti & Yueh 2024).
+  {
+    Eigen::MatrixXd& S = res.S;
+    Eigen::MatrixXd G, Gn, H, Hn, D, Sn;
+    double E = authalic_energy(S, F, target, &G);
+    res.authalic_energy_initial = E;
+    int folded = spherical_folded_faces(S, F);
+    // Preconditioner: inverse lumped image vertex areas (the mass matrix of the current
+    // sphere mesh), so a vertex moves in proportion to its local scale; the exponentially
+    // small triangles the conformal stage leaves on thin parts cannot flip in one step.
+    Eigen::VectorXd lump(n);
+    auto precondition = [&](const Eigen::MatrixXd& Sx, const Eigen::MatrixXd& Gx, Eigen::MatrixXd& Hx) {
+      lump.setZero();
+      for (Eigen::Index f = 0; f < m; ++f) {
+        const Eigen::Vector3d p = Sx.row(F(f, 0)), q = Sx.row(F(f, 1)), r = Sx.row(F(f, 2));
+        const double a = (q - p).cross(r - p).norm() / 6.0;
+        for (int c = 0; c < 3; ++c) lump(F(f, c)) += a;
+      }
+      const double floor = 1e-12 * lump.sum();
+      Hx.resize(n, 3);
+      for (Eigen::Index i = 0; i < n; ++i) Hx.row(i) = Gx.row(i) / std::max(lump(i), floor);
+      tangent_project(Sx, Hx);
+    };
+    double mean_edge = 0;
+    for (Eigen::Index f = 0; f < m; ++f) mean_edge += (S.row(F(f, 0)) - S.row(F(f, 1))).norm();
+    mean_edge /= double(m);
+    tangent_project(S, G);
+    precondition(S, G, H);
+    D = -H;
+    double gh = G.cwiseProduct(H).sum();
+    double alpha = -1;
+    for (int it = 0; it < opt.authalic_iterations; ++it) {
+      double slope = G.cwiseProduct(D).sum();
+      if (!(slope < 0)) {
+        D = -H;
+        slope = -gh;
+        if (!(slope < 0)) break;
+      }
+      const double dmax = D.rowwise().norm().maxCoeff();
+      if (!(dmax > 0)) break;
+      if (alpha < 0) alpha = 0.5 * mean_edge / dmax;
+      alpha = std::min(2 * alpha, 0.5 * mean_edge / dmax);  // no vertex moves more than half a mean edge
+      bool ok = false;
+      double En = E;
+      int fn = folded;
+      for (int ls = 0; ls < 40; ++ls) {
+        Sn = S + alpha * D;
+        Sn.rowwise().normalize();  // retraction
+        En = authalic_energy(Sn, F, target, nullptr);
+        if (std::isfinite(En) && En <= E + 1e-4 * alpha * slope) {
+          fn = spherical_folded_faces(Sn, F);
+          if (fn <= folded) {
+            ok = true;
+            break;
+          }
+        }
+        alpha *= 0.5;
+      }
+      if (!ok) {
+        if (D.isApprox(-H)) break;
+        D = -H;  // restart along the preconditioned gradient
+        alpha = -1;
+        continue;
+      }
+      const double rel = (E - En) / std::max(1e-300, std::abs(E));
+      S.swap(Sn);
+      folded = fn;
+      E = authalic_energy(S, F, target, &Gn);
+      tangent_project(S, Gn);
+      precondition(S, Gn, Hn);
+      tangent_project(S, D);    // vector transport by projection
+      tangent_project(S, H);
+      const double ghn = Gn.cwiseProduct(Hn).sum();
+      const double beta = std::max(0.0, (ghn - Gn.cwiseProduct(H).sum()) / gh);  // PR+
+      D = -Hn + beta * D;
+      G.swap(Gn);
+      H.swap(Hn);
+      gh = ghn;
+      res.authalic_iterations = it + 1;
+      if (it % 10 == 0) report(progress, "ball/sphere-map", 1.0);
+      if (rel < opt.authalic_tolerance) break;
+    }
+    res.authalic_energy = E;
+    if (DBG()) std::fprintf(stderr, "DBG rcg: it %d E %g -> %g folded %d\n", res.authalic_iterations, res.authalic_energy_initial, E, folded);
+  }
+  {
+    const Eigen::VectorXd As = areas3(res.S, F);
+    const double tot = As.sum();
+    double mean = 0, mx = 0;
+    for (Eigen::Index f = 0; f < m; ++f) {
+      const double d = std::abs(As(f) / tot / target(f) - 1);
+      mean += d;
+      mx = std::max(mx, d);
+    }
+    res.area_distortion_mean = mean / double(m);
+    res.area_distortion_max = mx;
+  }
   res.folded_faces = spherical_folded_faces(res.S, F);
   report(progress, "ball/sphere-map", 1.0);
   res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

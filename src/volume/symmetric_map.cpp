@@ -226,18 +226,32 @@ void DirectionalEnergy::set_weights(double alpha, double beta, double gamma, dou
 void DirectionalEnergy::set_maps(const BarycentricMap& P_ij, const BarycentricMap& P_ji) {
   PijVj_ = map_positions(P_ij, Mj_.V, Mj_.T);
   Pji_ = P_ji;
-  Pji_verts_.resize(P_ji.size(), 4);
-  for (int r = 0; r < P_ji.size(); ++r)
+  const int ni = Mi_.num_vertices(), nj = P_ji.size();
+  Pji_verts_.resize(nj, 4);
+  for (int r = 0; r < nj; ++r)
     for (int q = 0; q < 4; ++q) Pji_verts_(r, q) = Mi_.T(P_ji.elem(r), q);
+  // Reverse CSR for the E_R gradient gather (entries in increasing 4w+q per vertex).
+  rev_start_.assign(ni + 1, 0);
+  for (int r = 0; r < nj; ++r)
+    for (int q = 0; q < 4; ++q) rev_start_[Pji_verts_(r, q) + 1]++;
+  for (int v = 0; v < ni; ++v) rev_start_[v + 1] += rev_start_[v];
+  rev_list_.resize(4 * size_t(nj));
+  std::vector<int> fill(rev_start_.begin(), rev_start_.end() - 1);
+  for (int r = 0; r < nj; ++r)
+    for (int q = 0; q < 4; ++q) rev_list_[fill[Pji_verts_(r, q)]++] = 4 * r + q;
 }
 
+// Per-row terms are written into arrays in parallel and summed serially in row order, and
+// gradient rows are gathered per vertex in a fixed order: the result does not depend on
+// the number of threads.
 double DirectionalEnergy::evaluate(const Eigen::MatrixXd& X, Eigen::MatrixXd* grad,
                                    Terms* terms) const {
   const int ni = Mi_.num_vertices(), nj = Mj_.num_vertices();
+  if (X.rows() != ni || X.cols() != 3) throw Error("DirectionalEnergy: X must be n_i×3");
   Terms t;
-  // E_ARAP (Eq. 20)
   // Terms with zero weight are skipped unless `terms` asks for them.
   const bool all = terms != nullptr;
+  // E_ARAP (Eq. 20)
   t.arap = (alpha_ != 0 || all) ? arap_.energy(X, alpha_ != 0 ? grad : nullptr) : 0.0;
   if (grad) {
     if (alpha_ != 0)
@@ -245,44 +259,72 @@ double DirectionalEnergy::evaluate(const Eigen::MatrixXd& X, Eigen::MatrixXd* gr
     else
       grad->setZero(ni, 3);
   }
-  // E_Q (Eq. 17): 1/(c_i c_j) sum_v C_i(v) |X_v - (P_ij V_j)_v|^2
-  {
-    Eigen::MatrixXd D = X - PijVj_;
-    Eigen::VectorXd r = D.rowwise().squaredNorm();
-    t.auxiliary = Ci_.dot(r) / (ci_ * cj_);
-    if (grad && beta_ != 0) grad->noalias() += (2.0 * beta_ / (ci_ * cj_)) * (Ci_.asDiagonal() * D);
+  const bool do_R = alpha_ != 1 || all, grad_R = grad && alpha_ != 1;
+  if (do_R) {
+    Dr_.resize(nj, 3);
+    er_.resize(nj);
   }
-  // E_R (Eq. 18, term (j,i)): 1/c_j^2 sum_w C_j(w) |(P_ji X)_w - V_j(w)|^2
-  if (alpha_ != 1 || all) {
-    Eigen::MatrixXd D(nj, 3);
-#pragma omp parallel for schedule(static)
-    for (int w = 0; w < nj; ++w) {
-      Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
-      for (int q = 0; q < 4; ++q) p += Pji_.bary(w, q) * X.row(Pji_verts_(w, q));
-      D.row(w) = p - Mj_.V.row(w);
+  eq_.resize(ni);
+  const double sq = 2.0 * beta_ / (ci_ * cj_), sr = 2.0 * (1.0 - alpha_) / (cj_ * cj_);
+#pragma omp parallel
+  {
+    // E_R (Eq. 18, term (j,i)) residuals: (P_ji X)_w - V_j(w)
+    if (do_R) {
+#pragma omp for schedule(static)
+      for (int w = 0; w < nj; ++w) {
+        Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
+        for (int q = 0; q < 4; ++q) p += Pji_.bary(w, q) * X.row(Pji_verts_(w, q));
+        p -= Mj_.V.row(w);
+        Dr_.row(w) = p;
+        er_(w) = Cj_(w) * p.squaredNorm();
+      }
     }
-    t.reversibility = Cj_.dot(D.rowwise().squaredNorm()) / (cj_ * cj_);
-    if (grad && alpha_ != 1) {
-      const double s = 2.0 * (1.0 - alpha_) / (cj_ * cj_);
-      for (int w = 0; w < nj; ++w)  // serial scatter (deterministic)
-        for (int q = 0; q < 4; ++q)
-          grad->row(Pji_verts_(w, q)) += (s * Cj_(w) * Pji_.bary(w, q)) * D.row(w);
+    // E_Q (Eq. 17): C_i(v) |X_v - (P_ij V_j)_v|^2, and the gradients of E_Q and E_R
+    // gathered per vertex.
+#pragma omp for schedule(static)
+    for (int v = 0; v < ni; ++v) {
+      const Eigen::RowVector3d d = X.row(v) - PijVj_.row(v);
+      eq_(v) = Ci_(v) * d.squaredNorm();
+      if (grad) {
+        Eigen::RowVector3d g = Eigen::RowVector3d::Zero();
+        if (beta_ != 0) g = (sq * Ci_(v)) * d;
+        if (grad_R)
+          for (int p = rev_start_[v]; p < rev_start_[v + 1]; ++p) {
+            const int w = rev_list_[p] >> 2, q = rev_list_[p] & 3;
+            g += (sr * Cj_(w) * Pji_.bary(w, q)) * Dr_.row(w);
+          }
+        grad->row(v) += g;
+      }
     }
+  }
+  double sum_q = 0;
+  for (int v = 0; v < ni; ++v) sum_q += eq_(v);
+  t.auxiliary = sum_q / (ci_ * cj_);
+  if (do_R) {
+    double sum_r = 0;
+    for (int w = 0; w < nj; ++w) sum_r += er_(w);
+    t.reversibility = sum_r / (cj_ * cj_);
   }
   // E_P,f (Eq. 21): boundary vertices of M_i at X, to dM_j.
   if (gamma_ != 0 || all) {
     const int nb = int(bi_.to_volume.size());
-    Eigen::MatrixXd Q(nb, 3);
-    for (int b = 0; b < nb; ++b) Q.row(b) = X.row(bi_.to_volume(b));
-    std::vector<ClosestPointResult> r = target_boundary_.query(Q);
-    double e = 0;
+    Qf_.resize(nb, 3);
+    for (int b = 0; b < nb; ++b) Qf_.row(b) = X.row(bi_.to_volume(b));
+    const bool hinted = int(hits_f_.size()) == nb;  // last evaluation's answers
+    target_boundary_.query(Qf_, hits_f_, hinted);
+    ef_.resize(nb);
+    const double s = 2.0 * gamma_ / si_;
+#pragma omp parallel for schedule(static)
     for (int b = 0; b < nb; ++b) {
+      const ClosestPointResult& r = hits_f_[b];
       Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
-      for (int c = 0; c < 3; ++c) p += r[b].bary(c) * bj_.surface.V.row(bj_.surface.F(r[b].elem, c));
-      Eigen::RowVector3d d = Q.row(b) - p;
-      e += ai_(b) * d.squaredNorm();
-      if (grad && gamma_ != 0) grad->row(bi_.to_volume(b)) += (2.0 * gamma_ * ai_(b) / si_) * d;
+      for (int c = 0; c < 3; ++c) p += r.bary(c) * bj_.surface.V.row(bj_.surface.F(r.elem, c));
+      const Eigen::RowVector3d d = Qf_.row(b) - p;
+      ef_(b) = ai_(b) * d.squaredNorm();
+      if (grad && gamma_ != 0) grad->row(bi_.to_volume(b)) += (s * ai_(b)) * d;  // rows distinct
     }
+    double e = 0;
+    for (int b = 0; b < nb; ++b) e += ef_(b);
     t.projection_forward = e / si_;
     // E_P,b (Eq. 22): boundary vertices of M_j (rest) to the mapped boundary dF_i(X).
     if (bscale_ != 0 || all) {
@@ -293,19 +335,22 @@ double DirectionalEnergy::evaluate(const Eigen::MatrixXd& X, Eigen::MatrixXd* gr
         mapped_boundary_.refit(X);
       }
       const int nbj = int(bj_.to_volume.size());
-      std::vector<ClosestPointResult> rb = mapped_boundary_.query(bj_.surface.V);
-      double eb = 0;
-      const double s = 2.0 * gamma_ * bscale_ / sj_;
-      for (int b = 0; b < nbj; ++b) {
+      const bool hinted_b = int(hits_b_.size()) == nbj;
+      mapped_boundary_.query(bj_.surface.V, hits_b_, hinted_b);
+      eb_.resize(nbj);
+      const double sb = 2.0 * gamma_ * bscale_ / sj_;
+      for (int b = 0; b < nbj; ++b) {  // serial scatter onto face corners (fixed order)
+        const ClosestPointResult& r = hits_b_[b];
         Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
-        for (int c = 0; c < 3; ++c) p += rb[b].bary(c) * X.row(Fi_vol_(rb[b].elem, c));
-        Eigen::RowVector3d d = bj_.surface.V.row(b) - p;
-        eb += aj_(b) * d.squaredNorm();
-        if (grad && s != 0)
-          for (int c = 0; c < 3; ++c)
-            grad->row(Fi_vol_(rb[b].elem, c)) -= (s * aj_(b) * rb[b].bary(c)) * d;
+        for (int c = 0; c < 3; ++c) p += r.bary(c) * X.row(Fi_vol_(r.elem, c));
+        const Eigen::RowVector3d d = bj_.surface.V.row(b) - p;
+        eb_(b) = aj_(b) * d.squaredNorm();
+        if (grad && sb != 0)
+          for (int c = 0; c < 3; ++c) grad->row(Fi_vol_(r.elem, c)) -= (sb * aj_(b) * r.bary(c)) * d;
       }
-      t.projection_backward = eb / sj_;
+      double e2 = 0;
+      for (int b = 0; b < nbj; ++b) e2 += eb_(b);
+      t.projection_backward = e2 / sj_;
     }
   }
   t.total = alpha_ * t.arap + (1 - alpha_) * t.reversibility +
@@ -349,7 +394,14 @@ class PStep {
     Q_.resize(ni, 6);
     Q_.leftCols(3) = a * Mi_.V;
     Q_.rightCols(3) = b * Xij;
-    std::vector<ClosestPointResult> r = bvh_.query(Q_);
+    // Hints: the previous P-step's answer for each row (the exact closest point is still
+    // returned; a good hint only tightens the initial bound of the branch and bound).
+    std::vector<ClosestPointResult>& r = hits_;
+    const bool hinted = P.size() == ni;
+    r.resize(ni);
+    if (hinted)
+      for (int v = 0; v < ni; ++v) r[v].elem = P.elem(v);
+    bvh_.query(Q_, r, hinted);
     P.elem.resize(ni);
     P.bary.resize(ni, 4);
     for (int v = 0; v < ni; ++v) {
@@ -387,6 +439,7 @@ class PStep {
   ClosestPoint6 bvh_, bvh_bd_;
   bool built_ = false;
   Eigen::MatrixXd W_, Q_;
+  std::vector<ClosestPointResult> hits_;
 };
 
 // L-BFGS over the rows `free_rows` of X (others fixed) of an objective on the full X.

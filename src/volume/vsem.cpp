@@ -309,10 +309,18 @@ VsemResult vsem_fixed_point(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T,
     energy.stretch_laplacian(it == 0 ? Vp : f, L);  // L_V(e) (step 7), then L_V(f) (step 10)
     if (nI > 0) {
       LII = L.topLeftCorner(nI, nI);
-      if (it == 0)
+      if (it == 0) {
         chol.compute(LII);
-      else
-        chol.factorize(LII);
+      } else {
+        // Folded image tets can make L_V(f) indefinite: the fixed point cannot go on
+        // from f, so it stops and keeps the best iterate so far.
+        try {
+          chol.factorize(LII);
+        } catch (const Error&) {
+          res.stopped_indefinite = true;
+          break;
+        }
+      }
       Eigen::MatrixXd f0 = f;
       f0.topRows(nI).setZero();
       const Eigen::MatrixXd rhs = -(L * f0).topRows(nI);  // -L_IB f_B

@@ -4,8 +4,11 @@
 //  - Quality: >= 10 seeds of generated non-isometric pairs, BIM initialization (both
 //    directions) vs the elastic refinement: mean conformal distortion, mean area
 //    distortion, mean curvature error, geodesic error against the ground truth.
-// Environment: SHAPEMAP_ELASTIC_SEEDS (default 10), SHAPEMAP_ELASTIC_VERTICES (quality
-// pairs, default 2000), SHAPEMAP_ELASTIC_SPEED_VERTICES (default 5000).
+// Environment: SHAPEMAP_ELASTIC_SEEDS (default 10), SHAPEMAP_ELASTIC_FIRST_SEED (default 1),
+// SHAPEMAP_ELASTIC_VERTICES (quality
+// pairs, default 2000), SHAPEMAP_ELASTIC_SPEED_VERTICES (default 5000: the generator gives
+// somewhat fewer, e.g. 4265 / 4745 vertices for seed 1; 5900 gives a >= 5,000-vertex pair),
+// SHAPEMAP_ELASTIC_WARM_START (default 1: ElasticOptions::lbfgs_warm_start).
 #include "shapemap/eval/surface_distortion.h"
 #include "shapemap/eval/surface_metrics.h"
 #include "shapemap/generate.h"
@@ -14,6 +17,7 @@
 
 #include <gtest/gtest.h>
 #include <chrono>
+#include <ctime>
 #include <cstdio>
 #include <cstdlib>
 
@@ -38,39 +42,61 @@ TEST(ElasticBench, DISABLED_Speed5k) {
   BIMResult bim = blended_intrinsic_maps(pair.A, pair.B, bo);
   const double t_bim = now() - t0;
   ElasticOptions o;
+  o.lbfgs_warm_start = env_int("SHAPEMAP_ELASTIC_WARM_START", 1) != 0;
   t0 = now();
+  const std::clock_t c0 = std::clock();
   ElasticResult r = elastic_correspondence(pair.A, pair.B, bim.AB.map, bim.BA.map, o);
   const double t_el = now() - t0;
+  const double cpu_el = double(std::clock() - c0) / CLOCKS_PER_SEC;
   const int K = std::max(1, r.outer_iterations);
-  std::printf("elastic speed: A %d vertices, B %d vertices, BIM %.2f s, elastic %.2f s "
-              "(setup %.3f s, %d outer iterations, converged %d)\n",
-              pair.A.num_vertices(), pair.B.num_vertices(), t_bim, t_el, r.time_setup,
+  std::printf("elastic speed: A %d vertices, B %d vertices, BIM %.2f s, elastic %.2f s wall, "
+              "%.2f s CPU (all threads) (setup %.3f s, %d outer iterations, converged %d)\n",
+              pair.A.num_vertices(), pair.B.num_vertices(), t_bim, t_el, cpu_el, r.time_setup,
               r.outer_iterations, int(r.converged));
   std::printf("  per outer iteration: %.4f s = projection %.4f s + deformation %.4f s\n",
               (r.time_projection + r.time_deformation) / K, r.time_projection / K,
               r.time_deformation / K);
-  int inner = 0;
-  for (auto& it : r.history) inner += it.inner_iterations;
-  std::printf("  L-BFGS iterations per outer iteration (Y and Y~ steps): %.1f\n", double(inner) / K);
+  int inner = 0, evals = 0;
+  for (auto& it : r.history) {
+    inner += it.inner_iterations;
+    evals += it.inner_evaluations;
+  }
+  std::printf("  L-BFGS iterations per outer iteration (Y and Y~ steps): %.1f, energy+gradient "
+              "evaluations: %.1f\n", double(inner) / K, double(evals) / K);
+  const SurfaceDistortion d0 = surface_distortion(pair.A, pair.B, bim.AB.map);
+  const SurfaceDistortion d1 = surface_distortion(pair.A, pair.B, r.map_AB);
+  SurfaceErrorOptions eo;
+  eo.max_points = 500;
+  std::printf("  BIM -> elastic: conformal %.4f -> %.4f, |log area| %.4f -> %.4f, mean curvature "
+              "error %.4f -> %.4f, flipped %d -> %d, geodesic error %.4f -> %.4f\n",
+              d0.conformal_mean, d1.conformal_mean, d0.area_mean_abs, d1.area_mean_abs,
+              d0.mean_curvature_error, d1.mean_curvature_error, d0.flipped, d1.flipped,
+              surface_map_error(bim.AB.map, pair.truth_AB, pair.B.V, pair.B.F, eo).mean,
+              surface_map_error(r.map_AB, pair.truth_AB, pair.B.V, pair.B.F, eo).mean);
   EXPECT_TRUE(r.Y.allFinite());
 }
 
 TEST(ElasticBench, DISABLED_QualityVsBim) {
   const int seeds = env_int("SHAPEMAP_ELASTIC_SEEDS", 10);
+  const int first = env_int("SHAPEMAP_ELASTIC_FIRST_SEED", 1);
   const int nv = env_int("SHAPEMAP_ELASTIC_VERTICES", 2000);
   int better_conf = 0, better_area = 0, better_curv = 0, geo_not_worse = 0;
   double geo0_sum = 0, geo1_sum = 0;
   std::printf("%4s %6s %6s | %8s %8s | %8s %8s | %8s %8s | %8s %8s | %6s %6s | %6s\n", "seed", "nA",
               "nB", "conf0", "conf1", "area0", "area1", "curv0", "curv1", "geo0", "geo1", "flip0",
               "flip1", "time");
-  for (int s = 1; s <= seeds; ++s) {
+  for (int s = first; s < first + seeds; ++s) {
     GeneratedPair pair = make_creature_pair(s, PairKind::NonIsometric, nv);
     BIMOptions bo;
     bo.symmetric = true;
     bo.seed = s;
     BIMResult bim = blended_intrinsic_maps(pair.A, pair.B, bo);
     const double t0 = now();
-    ElasticResult r = elastic_correspondence(pair.A, pair.B, bim.AB.map, bim.BA.map, ElasticOptions{});
+    ElasticOptions o;
+    o.lbfgs_warm_start = env_int("SHAPEMAP_ELASTIC_WARM_START", 1) != 0;
+    ElasticResult r = elastic_correspondence(pair.A, pair.B, bim.AB.map, bim.BA.map, o);
+    int inner = 0;
+    for (const auto& it : r.history) inner += it.inner_iterations;
     const double t = now() - t0;
     const SurfaceDistortion d0 = surface_distortion(pair.A, pair.B, bim.AB.map);
     const SurfaceDistortion d1 = surface_distortion(pair.A, pair.B, r.map_AB);
@@ -88,6 +114,9 @@ TEST(ElasticBench, DISABLED_QualityVsBim) {
                 s, pair.A.num_vertices(), pair.B.num_vertices(), d0.conformal_mean,
                 d1.conformal_mean, d0.area_mean_abs, d1.area_mean_abs, d0.mean_curvature_error,
                 d1.mean_curvature_error, g0, g1, d0.flipped, d1.flipped, t);
+    std::printf("     outer iterations %d, L-BFGS iterations per outer %.1f, degenerate faces %d -> %d\n",
+                r.outer_iterations, double(inner) / std::max(1, r.outer_iterations),
+                r.degenerate_faces_initial, r.degenerate_faces_final);
     std::fflush(stdout);
   }
   std::printf("refined beats BIM on: conformal %d/%d, area %d/%d, mean curvature %d/%d; "

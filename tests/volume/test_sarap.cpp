@@ -114,3 +114,30 @@ TEST(Sarap, FlatTetsHaveFiniteEnergyAndGradient) {
   EXPECT_NEAR(E, 0.5 * 3.0, 1e-12);  // sigma = 0: f = 3 per tet, weights sum to 1/2
   EXPECT_TRUE(G.allFinite());
 }
+
+// arap_distortion(J) takes the closest rotation from Horn's quaternion matrix when its
+// largest eigenvalue is well separated and from the signed SVD otherwise: both must give
+// Eq. 19 and the Sec. 5.2 gradient U diag(2(sigma - 1)) V^T of the signed SVD.
+TEST(Sarap, DistortionAndGradientMatchTheSignedSVD) {
+  std::mt19937 rng(7);
+  std::normal_distribution<double> n(0, 1);
+  for (int trial = 0; trial < 2000; ++trial) {
+    const double scale = trial < 500 ? 0.01 : trial < 1000 ? 0.3 : trial < 1500 ? 1.0 : 3.0;
+    Eigen::Matrix3d J = random_rotation(rng);
+    for (int i = 0; i < 9; ++i) J(i) += scale * n(rng);
+    if (trial % 7 == 0) J.col(2) = 0.5 * J.col(0) - 0.25 * J.col(1);  // flat
+    if (trial % 11 == 0) J.col(0) = -J.col(0);                        // inverted
+    SignedSVD3 s = signed_svd3(J);
+    const double f_ref = (s.S.array() - 1.0).square().sum();
+    const Eigen::Matrix3d G_ref = s.U * (2.0 * (s.S.array() - 1.0)).matrix().asDiagonal() * s.V.transpose();
+    Eigen::Matrix3d G;
+    const double f = arap_distortion(J, &G);
+    const double tol = 1e-11 * (1.0 + J.squaredNorm());
+    ASSERT_NEAR(f, f_ref, tol) << "trial " << trial;
+    // Flat J: the closest rotation is not unique, only f is defined; skip the gradient.
+    if (std::abs(s.S(1) + s.S(2)) > 1e-6 * s.S(0)) {
+      EXPECT_LT((G - G_ref).cwiseAbs().maxCoeff(), 1e-9 * (1.0 + J.norm())) << "trial " << trial;
+    }
+    EXPECT_NEAR(arap_distortion(J, nullptr), f, 1e-14 * (1.0 + f));
+  }
+}

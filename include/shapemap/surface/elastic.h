@@ -49,6 +49,10 @@ struct ElasticOptions {
   // our addition, see docs/methods.md: later outer iterations start near the optimum).
   double inner_f_tol = 1e-9;
   int lbfgs_memory = 10;          // L-BFGS history (the paper uses BFGS; see docs/methods.md)
+  // Keep each side's L-BFGS curvature pairs from one outer iteration's Y step to the next
+  // (our addition, docs/methods.md: a quasi-Newton Hessian approximation is carried over,
+  // as BFGS in the paper could be). false = every Y step starts from steepest descent.
+  bool lbfgs_warm_start = true;
   // Sec. 5.2 "Global scale": scale each mesh to unit area. false = the partial-matching
   // variant of Sec. 6.2: no scaling; alpha divided by the source area s (s~ for the
   // reverse shell), beta and gamma divided by s * s~.
@@ -69,6 +73,7 @@ struct ElasticIterate {
   double mismatch = 0;        // beta terms, weighted
   double reversibility = 0;   // gamma terms, weighted
   int inner_iterations = 0;   // L-BFGS iterations, Y and Y~ steps
+  int inner_evaluations = 0;  // energy + gradient evaluations of the Y and Y~ steps
   double time_projection = 0; // seconds in the P (and Q) steps of this iteration
   double time_deformation = 0;// seconds in the Y (and Y~) steps
 };

@@ -11,9 +11,9 @@
 //           evaluation (Sec. 5.2, "Masking edge sets").
 // X (reference, hats) is fixed at construction; Y is the deformed configuration with
 // the same connectivity. The energy is invariant to rigid motions of Y and zero at Y = X.
-// Gradients are exact; evaluation is parallel over faces/edges/vertices (OpenMP) with
-// per-element results gathered in a fixed order, so results do not depend on the
-// thread count.
+// Gradients are exact; evaluation of large meshes is parallel over faces then vertices
+// (OpenMP) with per-element results gathered in a fixed order (the serial path adds the
+// same terms in the same order), so results do not depend on the thread count.
 #pragma once
 #include <Eigen/Core>
 #include <vector>
@@ -28,6 +28,11 @@ struct ShellEnergyOptions {
   double log_eps = 1e-4;        // Sec. 4.1: -log det linearly extended below det G < eps
   double degenerate_tol = 1e-8; // Sec. 5.2: triangle degenerate if |n_t(Y)| <= tol * |n_t(X)|
                                 //   (n unnormalized: twice the area); such triangles mask edges
+  // Evaluate with OpenMP only from this many faces on (not from the paper). One evaluation
+  // of a 5k-vertex mesh takes ~0.8 ms on one core; on the shared 2-core machine a parallel
+  // region per evaluation made it 10-25x slower (threads wait for a descheduled partner),
+  // so mid-size meshes run serially. Results are bitwise identical either way.
+  int parallel_min_faces = 1 << 16;
 };
 
 // The parts of one evaluation.
@@ -86,14 +91,21 @@ class ShellEnergy {
   Eigen::MatrixXi face_side_;  // m×3: 0 if the face is E_(e,0) for that edge, else 1
   std::vector<int> vf_start_, vf_face_, vf_corner_;  // vertex -> (face, corner) CSR
   // scratch, per evaluation
-  mutable Eigen::MatrixXd fN_;      // m×3 unnormalized normals of Y
-  mutable Eigen::VectorXd fNlen_;   // m
-  mutable std::vector<char> fdeg_;  // m
-  mutable Eigen::MatrixXd fgrad_;   // m×9 per-face vertex gradients
-  mutable Eigen::VectorXd fenergy_; // m membrane energy per face (weighted by a^)
-  mutable Eigen::VectorXd eenergy_; // k bending energy per edge (weighted by l^2/d^)
-  mutable Eigen::MatrixXd egN_;     // k×6 dE/dN for side 0 and side 1
-  mutable std::vector<char> eadm_;  // k
+  mutable std::vector<char> fdeg_;    // m: face of Y degenerate
+  mutable std::vector<double> fNlen_; // m: |N_t(Y)| (unnormalized normal length)
+  mutable std::vector<double> fn_;    // 3m: unit normals of Y (0 if collapsed)
+  mutable std::vector<double> fmem_;  // 6m: membrane gradient w.r.t. e1, e2 per face
+  mutable std::vector<double> fgrad_; // 9m: per-face corner gradients, face-major
+  mutable Eigen::VectorXd fenergy_;   // m membrane energy per face (weighted by a^)
+  mutable std::vector<double> fbend_; // m: bending energy of the edges whose side-0 face it is
+  mutable std::vector<char> fadm_;    // m: number of those edges that are admissible
+  // Face slot j (edge opposite corner j): interior edge e (or -1), the face's side of it,
+  // the neighbour h across it, and the edge's cos th^ and weight l^2/d^ (copies, packed).
+  struct Slot {
+    int e = -1, side = 0, h = -1;
+    double cosr = 0, w = 0;
+  };
+  std::vector<Slot> slots_;           // 3m
   bool frozen_ = false;
   std::vector<char> frozen_adm_;    // k, admissible set of freeze_mask()
 };

@@ -10,6 +10,10 @@
 // is re-chosen (and CG restarted) when a boundary vertex drifts close to a pole. The phi
 // block of the preconditioner is S L_BB S with S = diag(sin theta) of the frame's chart,
 // so the preconditioned step moves near-pole vertices isotropically on the sphere.
+//
+// Post-step (not in the paper, docs/methods.md): when CG ends with inverted tets, local
+// untangling (max-min ascent of incident volumes; boundary vertices move on the sphere),
+// fold-guarded CG polishing, and untangling again; each stage kept only if it removes folds.
 #pragma once
 #include "shapemap/mesh.h"
 #include "shapemap/progress.h"
@@ -59,6 +63,14 @@ struct BallParamOptions {
   double initial_step = 1.0;        // alpha_{-1} for the first quadratic model (Eq. 17)
   double c1 = 1e-4, c2 = 0.1;       // strong Wolfe constants, 0 < c1 < c2 < 1/2 (Eq. 18)
   int max_line_search = 30;         // evaluations per Wolfe fallback
+  int preconditioner_refresh = 0;   // re-factor M = blockdiag(L_II, L_BB) of L_V(f^(k)) every
+                                    // this many iterations and restart CG (0: the paper's
+                                    // M of L_V(f^(0)) throughout)
+  int untangle_rounds = 100;        // post-step: local untangling of folded tets with the
+                                    // boundary fixed, at most this many rounds (0: off)
+  int polish_iterations = 100;      // post-step: fold-guarded CG iterations after untangling
+  bool wolfe_model_step = false;    // accept the Eq. 17 step only if it satisfies Eq. 18
+                                    // (else the Wolfe search starts from it)
   double pole_guard = 0.25;         // re-choose the frame when min sin(theta) drops below
                                     // this fraction of its value when the frame was chosen
   bool rotate_frame = true;         // pole handling (off: the paper's fixed frame Q = I)
@@ -76,20 +88,27 @@ struct BallParamResult {
   double energy_vsem = 0;           // E_I after VSEM (Alg. 1 step 14)
   double energy_final = 0;          // E_I at the end
   std::vector<double> energies;     // E_I after each CG iteration
-  int iterations = 0;               // CG iterations
+  int iterations = 0;               // CG iterations (including polish_iterations)
+  int polish_iterations = 0;        // fold-guarded CG iterations of the post-step
   int quadratic_steps = 0;          // iterations that took the Eq. 17 step
   int wolfe_steps = 0;              // iterations that fell back to the strong Wolfe search
   int restarts = 0;                 // steepest-descent restarts (non-descent p, new frame)
   int frame_rotations = 0;          // pole guard activations (after the initial frame)
   int evaluations = 0;              // E_I evaluations in CG (with or without gradient)
+  int preconditioner_refreshes = 0; // re-factorizations of M (preconditioner_refresh)
   int fold_backtracks = 0;          // step halvings by prevent_new_folds
   int inverted_vsem = 0, inverted_final = 0;  // tets with |f(tau)| <= 0
+  int inverted_cg = 0;              // ... at the end of CG (before the untangling post-step)
+  double energy_cg = 0;             // E_I at the end of CG (before the untangling post-step)
   double cpu_seconds_cg = 0;        // process CPU time of the CG loop (all threads)
   bool converged = false;           // stopped by the tolerance (not MaxIter)
   int sphere_folded_faces = 0;      // folded faces of the boundary spherical map
+  double sphere_area_distortion_mean = 0, sphere_area_distortion_max = 0;  // its |ratio - 1|
   // Timings in seconds.
   double seconds_total = 0, seconds_sphere = 0, seconds_vsem = 0, seconds_factor = 0;
+  int preconditioner_fallbacks = 0;  // factorizations of L_V(f) that fell back to L_V(e)
   double seconds_cg = 0, seconds_cg_solve = 0, seconds_cg_eval = 0;
+  double seconds_post = 0;          // untangling + polishing post-step
 };
 
 // mesh: tet mesh of a topological ball, positively oriented. Throws InputError

@@ -13,8 +13,10 @@
 //     minimization algorithm for equiareal parameterizations"): the same alternation with
 //     the stretch Laplacian L_S(f), cotangent weights of the image divided by the stretch
 //     factor sigma = (target area share) / (image area share), while E_S - A decreases.
-// Iterations that would increase the energy or the number of folded triangles are
-// rejected (and stop the stage).
+// CEM steps that would increase the energy or the number of folded triangles are rejected
+// (and stop the stage). SEM is run as published (not monotone); the iterate with the lowest
+// authalic energy E_A is kept, its folded faces (if any) are untangled locally, then the
+// Riemannian refinement below (4.) polishes E_A without creating folds.
 #pragma once
 #include "shapemap/mesh.h"
 #include "shapemap/progress.h"
@@ -28,6 +30,13 @@ struct SphereParamOptions {
   int stretch_iterations = 50;       // SEM alternations (Yueh et al. 2019)
   double stretch_tolerance = 1e-7;   // stop SEM when the relative decrease is below this
   double stretch_radius = 1.3;       // disk |z| < R re-solved in each SEM step
+  // 4. Riemannian refinement of the authalic energy E_A (Sutti & Yueh 2024, "Riemannian
+  // gradient descent methods for spherical area-preserving mappings"): projected-gradient
+  // steps on the product of spheres with retraction by normalization, preconditioned by
+  // the (shifted) cotangent Laplacian of the sphere mesh, Polak-Ribiere+ CG directions,
+  // Armijo backtracking, and no step may increase the number of folded faces.
+  int authalic_iterations = 400;     // 0 = off (the SEM result is used as is)
+  double authalic_tolerance = 1e-9;  // stop when the relative decrease of E_A is below this
 };
 
 struct SphereParamResult {
@@ -35,7 +44,13 @@ struct SphereParamResult {
   int conformal_iterations = 0, stretch_iterations = 0;
   double conformal_energy = 0;       // E_C = 1/2 tr(S^T L S) - A(S) after CEM
   double stretch_energy_initial = 0; // E_S - A(S) before SEM
-  double stretch_energy = 0;         // E_S - A(S) at the end
+  double stretch_energy = 0;         // E_S - A(S) after SEM
+  int stretch_folded_faces = 0;      // folded faces of the best SEM iterate (before untangling)
+  int authalic_iterations = 0;       // Riemannian refinement iterations taken
+  double authalic_energy_initial = 0; // E_A = A(e)/A(S) E_S - A(S) (shares) before refinement
+  double authalic_energy = 0;         // E_A at the end
+  // Area distortion of the result: mean and max over faces of |a_S/A(S) / (w/W) - 1|.
+  double area_distortion_mean = 0, area_distortion_max = 0;
   int folded_faces = 0;              // faces whose image is negatively oriented
   double seconds = 0;
 };

@@ -42,7 +42,9 @@ struct SymmetricVolumeMapOptions {
   double decrease_tol = 1e-7;  // Sec. 5.4 (ii): E_prev - E between outer iterations
   int max_iterations = 50;     // Sec. 5.4 (iii): outer iterations per stage
   int min_iterations = 1;      // outer iterations before a stopping rule may apply
-  int xstep_iterations = 30;   // L-BFGS iterations per X-step (Sec. 5.2; not in the paper)
+  int xstep_iterations = 15;   // L-BFGS iterations per X-step (Sec. 5.2; not in the paper:
+                               // 15 gave the same maps as 30 on a 30k-tet pair at half the
+                               // cost, docs/methods.md)
   int repair_iterations = 200; // Sec. 5.3: L-BFGS iterations of the inverted-tet repair
   int repair_rings = 1;        // Sec. 5.3: 1-ring neighbourhood of inverted tets' vertices
   int post_repair_steps = 100; // Sec. 5.4 stage 5: at most 100 L-BFGS steps ...
@@ -110,12 +112,14 @@ BarycentricMap surface_initial_map(const TetMesh& A, const TetMesh& B, const Tri
                                    const TriMesh& SB, const BarycentricMap& map_AB);
 
 // The automatic mode: a surface map between two closed genus-0 surfaces in both
-// directions (BIM, then elastic refinement when available). Returns {map_AB, map_BA}
-// (vertex -> face + barycentric). `used` receives a short description of the method.
+// directions (BIM, then elastic refinement when `elastic_refinement`). Returns
+// {map_AB, map_BA} (vertex -> face + barycentric). `used` receives a short description
+// of the method. (elastic_refinement: added, backward compatible.)
 std::pair<BarycentricMap, BarycentricMap> surface_map_for_volumes(const TriMesh& SA,
                                                                   const TriMesh& SB,
                                                                   const ProgressCallback& progress = {},
-                                                                  std::string* used = nullptr);
+                                                                  std::string* used = nullptr,
+                                                                  bool elastic_refinement = true);
 
 // Locates positions X (k×3) in the tet mesh M: a containing tet (or the closest one);
 // rows listed in `boundary_rows` are instead snapped to the closest point of M's
@@ -168,6 +172,15 @@ class DirectionalEnergy {
   Eigen::MatrixXd PijVj_;            // n_i×3
   BarycentricMap Pji_;
   Eigen::MatrixXi Pji_verts_;        // n_j×4 vertices of M_i
+  // E_R gradient gather (set_maps): vertex v of M_i <- entries (w, q) with
+  // Pji_verts_(w, q) == v, CSR in increasing 4w+q (fixed order: deterministic).
+  std::vector<int> rev_start_, rev_list_;
+  // Scratch reused across evaluations (no per-evaluation allocation once sized); the
+  // closest-point answers of the last evaluation are the hints of the next (Sec. 5.2:
+  // consecutive L-BFGS iterates move little). Not thread-safe, like ArapEnergy.
+  mutable Eigen::MatrixXd Qf_, Dr_;
+  mutable Eigen::VectorXd ef_, eb_, er_, eq_;
+  mutable std::vector<ClosestPointResult> hits_f_, hits_b_;
 };
 
 }  // namespace shapemap

@@ -1,0 +1,61 @@
+// `shapemap demo` end to end on a small generated pair: the whole chain (generate ->
+// BIM -> elastic -> automatic volume map -> ball -> registration) must succeed, write
+// every report with its pictures, and reach quality that would catch a regression in
+// any stage it chains.
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <sys/wait.h>
+#include <unistd.h>
+
+namespace fs = std::filesystem;
+
+namespace {
+nlohmann::json load(const fs::path& p) {
+  std::ifstream f(p);
+  EXPECT_TRUE(f.good()) << p;
+  nlohmann::json j;
+  if (f) f >> j;
+  return j;
+}
+}  // namespace
+
+TEST(DemoCli, WholeChainOnASmallPair) {
+  const fs::path dir = fs::temp_directory_path() / ("shapemap_demo_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  const std::string cmd = std::string(SHAPEMAP_BINARY) + " -q demo -o " + dir.string() +
+                          " --vertices 1200 --tets 8000 > " + (dir.string() + ".log") + " 2>&1";
+  int rc = std::system(cmd.c_str());
+  ASSERT_TRUE(WIFEXITED(rc));
+  ASSERT_EQ(WEXITSTATUS(rc), 0) << "see " << dir.string() << ".log";
+
+  for (const char* f : {"index.html", "summary.txt", "bim/report.html", "bim/texture_AB.png", "elastic/report.html",
+                        "elastic/map_BA.txt", "volume/report.html", "volume/slices_AB.png", "volume/B_on_A.vtk",
+                        "ball/ball.vtk", "ball/ball.png", "register/map_AB.txt", "register/report.html"})
+    EXPECT_TRUE(fs::exists(dir / f)) << f;
+
+  // Surface maps against the generated ground truth (BIM target: >= 0.75 within 0.1 on
+  // non-isometric pairs; elastic must not make the geodesic error worse).
+  const auto bim = load(dir / "bim/evaluation.json"), el = load(dir / "elastic/evaluation.json");
+  const double bim_within = bim["geodesic_error"]["fraction_within_0.1"];
+  const double el_within = el["geodesic_error"]["fraction_within_0.1"];
+  EXPECT_GE(bim_within, 0.75);
+  EXPECT_GE(el_within, 0.75);
+  EXPECT_LE(double(el["geodesic_error"]["mean"]), 1.1 * double(bim["geodesic_error"]["mean"]) + 0.005);
+
+  // The automatic volume map: no inverted tets, volume kept, close to the truth.
+  const auto vol = load(dir / "volume/evaluation.json")["metrics"];
+  EXPECT_LE(int(vol["n_inv"]), 2);
+  EXPECT_GE(double(vol["det_J_mean"]), 0.95);
+  EXPECT_LE(double(vol["truth_error_mean"]), 0.03);
+
+  // The ball: on the unit sphere, E_I decreased by the optimization.
+  const auto ball = load(dir / "ball/report.json");
+  EXPECT_LE(double(ball["metrics"]["boundary_sphere_error"]), 1e-9);
+  EXPECT_LT(double(ball["optimization"]["E_I_final"]), double(ball["optimization"]["E_I_after_vsem"]));
+  fs::remove_all(dir);
+  fs::remove(dir.string() + ".log");
+}

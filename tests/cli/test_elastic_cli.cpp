@@ -1,0 +1,106 @@
+// shapemap surface-map --method elastic --symmetric on a small generated non-isometric pair,
+// and shapemap evaluate surface with the Sec. 6.1 metrics of elastic-correspondence.txt
+// (conformal / area distortion, mean curvature error, flipped triangles, reversibility).
+#include "shapemap/io.h"
+#include "shapemap/maps.h"
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <unistd.h>
+
+namespace fs = std::filesystem;
+using namespace shapemap;
+
+namespace {
+int run(const std::string& args) {
+  std::string cmd = std::string(SHAPEMAP_BINARY) + " -q " + args + " > /dev/null 2>&1";
+  int rc = std::system(cmd.c_str());
+  return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+}
+nlohmann::json read_json(const fs::path& p) {
+  std::ifstream in(p);
+  return nlohmann::json::parse(in);
+}
+struct TempDir {
+  fs::path dir;
+  TempDir() {
+    dir = fs::temp_directory_path() / ("shapemap_elastic_cli_" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+  }
+  ~TempDir() { fs::remove_all(dir); }
+  std::string p(const std::string& f) const { return (dir / f).string(); }
+};
+bool finite_nonneg(const nlohmann::json& v) {
+  return v.is_number() && std::isfinite(v.get<double>()) && v.get<double>() >= 0;
+}
+}  // namespace
+
+TEST(ElasticCli, SymmetricRunWritesOutputsAndEvaluateReportsSec61Metrics) {
+  TempDir t;
+  ASSERT_EQ(run("generate --shape pair --kind non-isometric --vertices 1000 --seed 3 -o " + t.p("pair")), 0);
+  const std::string A = t.p("pair/A.obj"), B = t.p("pair/B.obj");
+  // The first 60 outer iterations of the default schedule (beta ramp over 200) keep the
+  // test short; the full run is measured in bench/elastic.sh.
+  ASSERT_EQ(run("surface-map " + A + " " + B + " -o " + t.p("out") +
+                " --method elastic --symmetric --elastic-iterations 60 --truth " +
+                t.p("pair/truth_AB.txt")),
+            0);
+  for (const char* name : {"map_AB.txt", "map_BA.txt", "A_on_B.obj", "B_on_A.obj", "report.json"})
+    EXPECT_TRUE(fs::exists(t.dir / "out" / name)) << name;
+  const TriMesh MA = read_surface(A), MB = read_surface(B);
+  const BarycentricMap ab = read_map(t.p("out/map_AB.txt")), ba = read_map(t.p("out/map_BA.txt"));
+  EXPECT_NO_THROW(validate_map(ab, MA.num_vertices(), MB.num_faces(), 3, "map_AB"));
+  EXPECT_NO_THROW(validate_map(ba, MB.num_vertices(), MA.num_faces(), 3, "map_BA"));
+
+  // report.json: metrics of the initial (BIM) and the final maps; the refinement lowers
+  // the conformal distortion and keeps the map as close to the truth as BIM's.
+  const nlohmann::json r = read_json(t.dir / "out" / "report.json");
+  ASSERT_TRUE(r.contains("metrics"));
+  const auto& i0 = r["metrics"]["initial"]["AB"];
+  const auto& i1 = r["metrics"]["final"]["AB"];
+  for (const char* k : {"conformal_distortion_mean", "area_distortion_mean_abs",
+                        "mean_curvature_error", "reversibility", "geodesic_error_mean"}) {
+    EXPECT_TRUE(finite_nonneg(i0[k])) << k;
+    EXPECT_TRUE(finite_nonneg(i1[k])) << k;
+  }
+  EXPECT_LT(i1["conformal_distortion_mean"].get<double>(), i0["conformal_distortion_mean"].get<double>());
+  EXPECT_LT(i1["conformal_distortion_mean"].get<double>(), 2.0);
+  EXPECT_LT(i1["area_distortion_mean_abs"].get<double>(), 1.0);
+  EXPECT_LT(i1["reversibility"].get<double>(), 0.1);
+  EXPECT_LT(i1["geodesic_error_mean"].get<double>(), 1.5 * i0["geodesic_error_mean"].get<double>() + 0.01);
+  EXPECT_LT(i1["flipped_triangles"].get<int>(), MA.num_faces() / 20);
+  EXPECT_GT(r["elastic"]["outer_iterations"].get<int>(), 0);
+  EXPECT_TRUE(finite_nonneg(r["elastic"]["time_per_iteration_projection"]));
+  EXPECT_TRUE(finite_nonneg(r["elastic"]["time_per_iteration_deformation"]));
+
+  // evaluate surface: geodesic error + Sec. 6.1 metrics (+ reversibility with --map-ba).
+  ASSERT_EQ(run("evaluate surface " + A + " " + B + " " + t.p("out/map_AB.txt") + " --truth " +
+                t.p("pair/truth_AB.txt") + " --map-ba " + t.p("out/map_BA.txt") + " -o " +
+                t.p("eval.json")),
+            0);
+  const nlohmann::json e = read_json(t.dir / "eval.json");
+  ASSERT_TRUE(e.contains("distortion"));
+  const auto& d = e["distortion"];
+  EXPECT_TRUE(finite_nonneg(d["conformal_distortion"]["mean"]));
+  EXPECT_TRUE(finite_nonneg(d["area_distortion"]["mean_abs"]));
+  EXPECT_TRUE(finite_nonneg(d["mean_curvature_error"]));
+  EXPECT_GE(d["flipped_triangles"].get<int>(), 0);
+  EXPECT_TRUE(finite_nonneg(e["reversibility"]));
+  EXPECT_TRUE(finite_nonneg(e["geodesic_error"]["mean"]));
+  EXPECT_TRUE(e.contains("distortion_BA"));
+  // The same numbers as the report's (same definitions, same unit-area normalization).
+  EXPECT_NEAR(d["conformal_distortion"]["mean"].get<double>(), i1["conformal_distortion_mean"].get<double>(), 1e-9);
+  EXPECT_NEAR(d["mean_curvature_error"].get<double>(), i1["mean_curvature_error"].get<double>(), 1e-9);
+  EXPECT_NEAR(e["reversibility"].get<double>(), i1["reversibility"].get<double>(), 1e-9);
+  EXPECT_EQ(d["flipped_triangles"].get<int>(), i1["flipped_triangles"].get<int>());
+
+  // A reverse map of the wrong size (A -> B given as B -> A): exit 2.
+  EXPECT_EQ(run("evaluate surface " + A + " " + B + " " + t.p("out/map_AB.txt") + " --map-ba " +
+                t.p("out/map_AB.txt")),
+            2);
+}
