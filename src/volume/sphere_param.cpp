@@ -9,9 +9,6 @@
 #include <chrono>
 #include <cmath>
 #include <vector>
-#include <cstdio>
-#include <cstdlib>
-static bool DBG(){static bool d=std::getenv("SPHERE_DEBUG")!=nullptr;return d;}
 
 namespace shapemap {
 
@@ -45,24 +42,6 @@ Eigen::SparseMatrix<double> weighted_cotan(const Eigen::MatrixXd& P, const Eigen
   L.setFromTriplets(trip.begin(), trip.end());
   L.makeCompressed();
   return L;
-}
-
-// The same Laplacian with every negative edge weight (positive off-diagonal entry) set to
-// zero and the diagonal re-summed: an M-matrix, so the Dirichlet solve inside the disk is a
-// convex-combination (Tutte) map and stays positive definite.
-Eigen::SparseMatrix<double> clamp_nonnegative(const Eigen::SparseMatrix<double>& L) {
-  Eigen::SparseMatrix<double> C = L;
-  Eigen::VectorXd diag = Eigen::VectorXd::Zero(C.rows());
-  for (Eigen::Index c = 0; c < C.outerSize(); ++c)
-    for (Eigen::SparseMatrix<double>::InnerIterator it(C, c); it; ++it) {
-      if (it.row() == it.col()) continue;
-      if (it.value() > 0) it.valueRef() = 0;
-      diag(it.row()) -= it.value();
-    }
-  for (Eigen::Index c = 0; c < C.outerSize(); ++c)
-    for (Eigen::SparseMatrix<double>::InnerIterator it(C, c); it; ++it)
-      if (it.row() == it.col()) it.valueRef() = diag(it.row());
-  return C;
 }
 
 // Flat triangle areas of P (n×3).
@@ -288,6 +267,7 @@ struct Stage {
   Eigen::MatrixXd S;
   double E = 0;
   int folded = 0;
+  double t = 1;  // damping factor of the step that produced it
 };
 
 }  // namespace
@@ -353,28 +333,37 @@ SphereParamResult spherical_area_preserving_map(const TriMesh& surface,
   cur.E = energy_minus_area(Lc, cur.S, F);
   cur.folded = spherical_folded_faces(cur.S, F);
   report(progress, "ball/sphere-map", 0.05);
-  if (DBG()) std::fprintf(stderr, "DBG linear: n %d m %d folded %d E %g bestq %g\n", int(n), int(m), cur.folded, cur.E, bestq);
+  const Stage linear_stage = cur;
 
-  // One hemisphere-alternation step (CEM and SEM share it).
-  auto step = [&](const Eigen::SparseMatrix<double>& L, double R, const Stage& from) {
-    Stage s;
-    s.uv = from.uv;
-    invert(s.uv);
+  // One hemisphere-alternation step (CEM and SEM share it). With max_folded >= 0 the step
+  // is damped: the solved inner vertices move only a fraction t = 1, 1/2, ..., 1/64 of the
+  // way from their inverted positions; the largest t whose image has at most max_folded
+  // folded faces is taken (s.folded = -1 when none has).
+  auto step = [&](const Eigen::SparseMatrix<double>& L, double R, const Stage& from, int max_folded) {
+    Plane uv0 = from.uv;
+    invert(uv0);
     std::vector<char> inner(n, 0);
-    for (Eigen::Index i = 0; i < n; ++i) inner[i] = s.uv.row(i).norm() < R;
-    solve_inner(L, inner, s.uv);
-    normalize_median(s.uv);
-    make_downward(F, s.uv);
-    s.S = inverse_stereographic(s.uv);
-    s.folded = spherical_folded_faces(s.S, F);
+    for (Eigen::Index i = 0; i < n; ++i) inner[i] = uv0.row(i).norm() < R;
+    Plane uv1 = uv0;
+    solve_inner(L, inner, uv1);
+    Stage s;
+    for (double t = 1; t > 1.0 / 100; t *= 0.5) {
+      s.uv = t == 1 ? uv1 : Plane(uv0 + t * (uv1 - uv0));
+      normalize_median(s.uv);
+      make_downward(F, s.uv);
+      s.S = inverse_stereographic(s.uv);
+      s.folded = spherical_folded_faces(s.S, F);
+      s.t = t;
+      if (max_folded < 0 || s.folded <= max_folded) return s;
+    }
+    s.folded = -1;
     return s;
   };
 
   // ---- 2. Conformal energy minimization (fixed cotangent Laplacian of the surface).
   for (int it = 0; it < opt.conformal_iterations; ++it) {
-    Stage s = step(Lc, opt.conformal_radius, cur);
+    Stage s = step(Lc, opt.conformal_radius, cur, -1);
     s.E = energy_minus_area(Lc, s.S, F);
-    if (DBG()) std::fprintf(stderr, "DBG cem %d: folded %d E %g\n", it, s.folded, s.E);
     if (!(s.E < cur.E) || s.folded > cur.folded) break;
     const double dE = cur.E - s.E;
     cur = std::move(s);
@@ -384,162 +373,197 @@ SphereParamResult spherical_area_preserving_map(const TriMesh& surface,
   }
   res.conformal_energy = cur.E;
 
-  // ---- 3. Stretch energy minimization (Yueh et al. 2019).
   Eigen::VectorXd target = face_weights.size() ? face_weights : A0;
   target /= target.sum();
-  auto stretch_laplacian = [&](const Eigen::MatrixXd& S) {
-    Eigen::VectorXd As = areas3(S, F);
-    As /= As.sum();
-    Eigen::VectorXd sigma(m);
-    for (Eigen::Index f = 0; f < m; ++f) sigma(f) = As(f) > 0 ? target(f) / As(f) : 0.0;
-    return weighted_cotan(S, F, &sigma);
-  };
-  Eigen::SparseMatrix<double> Ls = stretch_laplacian(cur.S);
-  cur.E = energy_minus_area(Ls, cur.S, F);
-  res.stretch_energy_initial = cur.E;
-  // The fixed-point iteration of SEM is not monotone: iterate as published, keep the
-  // fold-free iterate with the lowest authalic energy E_A, stop after 8 steps without a
-  // new best (or on the relative tolerance).
-  Stage best_stage = cur;
-  double best_EA = authalic_energy(cur.S, F, target, nullptr);
-  int since_best = 0;
-  for (int it = 0; it < opt.stretch_iterations; ++it) {
-    // The stretch-weighted Laplacian of a badly folded image can be indefinite: then the
-    // fixed point cannot continue, and the best iterate so far is kept.
-    Stage s;
-    try {
-      s = step(std::getenv("SPHERE_CLAMP") ? clamp_nonnegative(Ls) : Ls, opt.stretch_radius, cur);
-    } catch (const Error&) {
-      break;
-    }
-    Eigen::SparseMatrix<double> Ln = stretch_laplacian(s.S);
-    s.E = energy_minus_area(Ln, s.S, F);
-    if (!std::isfinite(s.E)) break;
-    cur = std::move(s);
-    Ls = std::move(Ln);
-    res.stretch_iterations = it + 1;
-    report(progress, "ball/sphere-map", 0.3 + 0.7 * (it + 1) / opt.stretch_iterations);
-    Eigen::MatrixXd Sn = cur.S;
-    Sn.rowwise().normalize();
-    const double EA = authalic_energy(Sn, F, target, nullptr);
-    if (DBG()) std::fprintf(stderr, "DBG sem %d: folded %d E %g EA %g\n", it, cur.folded, cur.E, EA);
-    if (cur.folded < best_stage.folded || (cur.folded == best_stage.folded && EA < best_EA)) {
-      const double rel = cur.folded < best_stage.folded ? 1.0 : (best_EA - EA) / std::max(1e-300, best_EA);
-      best_stage = cur;
-      best_EA = EA;
-      since_best = 0;
-      if (rel < opt.stretch_tolerance) break;
-    } else if (++since_best >= 8) {
-      break;
-    }
-  }
-  cur = std::move(best_stage);
-  res.stretch_folded_faces = cur.folded;
-  res.stretch_energy = cur.E;
-  res.S = cur.S;
-  res.S.rowwise().normalize();
-  // SEM may leave a few folded faces on strongly stretched parts: untangle them locally.
-  if (cur.folded > 0) untangle_sphere(res.S, F, 200);
-  if (DBG()) std::fprintf(stderr, "DBG sem best folded %d; after untangle %d\n", cur.folded, spherical_folded_faces(res.S, F));
-
-  // ---- 4. Riemannian preconditioned CG on the authalic energy (Sutti & Yueh 2024).
-  {
-    Eigen::MatrixXd& S = res.S;
-    Eigen::MatrixXd G, Gn, H, Hn, D, Sn;
-    double E = authalic_energy(S, F, target, &G);
-    res.authalic_energy_initial = E;
-    int folded = spherical_folded_faces(S, F);
-    // Preconditioner: inverse lumped image vertex areas (the mass matrix of the current
-    // sphere mesh), so a vertex moves in proportion to its local scale; the exponentially
-    // small triangles the conformal stage leaves on thin parts cannot flip in one step.
-    Eigen::VectorXd lump(n);
-    auto precondition = [&](const Eigen::MatrixXd& Sx, const Eigen::MatrixXd& Gx, Eigen::MatrixXd& Hx) {
-      lump.setZero();
-      for (Eigen::Index f = 0; f < m; ++f) {
-        const Eigen::Vector3d p = Sx.row(F(f, 0)), q = Sx.row(F(f, 1)), r = Sx.row(F(f, 2));
-        const double a = (q - p).cross(r - p).norm() / 6.0;
-        for (int c = 0; c < 3; ++c) lump(F(f, c)) += a;
-      }
-      const double floor = 1e-12 * lump.sum();
-      Hx.resize(n, 3);
-      for (Eigen::Index i = 0; i < n; ++i) Hx.row(i) = Gx.row(i) / std::max(lump(i), floor);
-      tangent_project(Sx, Hx);
+  // Steps 3-4 from a start map (the CEM result or the linear map), into r.
+  auto stretch_and_refine = [&](Stage cur, double fold_allowance, SphereParamResult& r) {
+    // ---- 3. Stretch energy minimization (Yueh et al. 2019).
+    auto stretch_laplacian = [&](const Eigen::MatrixXd& S) {
+      Eigen::VectorXd As = areas3(S, F);
+      As /= As.sum();
+      Eigen::VectorXd sigma(m);
+      for (Eigen::Index f = 0; f < m; ++f) sigma(f) = As(f) > 0 ? target(f) / As(f) : 0.0;
+      return weighted_cotan(S, F, &sigma);
     };
-    double mean_edge = 0;
-    for (Eigen::Index f = 0; f < m; ++f) mean_edge += (S.row(F(f, 0)) - S.row(F(f, 1))).norm();
-    mean_edge /= double(m);
-    tangent_project(S, G);
-    precondition(S, G, H);
-    D = -H;
-    double gh = G.cwiseProduct(H).sum();
-    double alpha = -1;
-    for (int it = 0; it < opt.authalic_iterations; ++it) {
-      double slope = G.cwiseProduct(D).sum();
-      if (!(slope < 0)) {
-        D = -H;
-        slope = -gh;
-        if (!(slope < 0)) break;
+    Eigen::SparseMatrix<double> Ls = stretch_laplacian(cur.S);
+    cur.E = energy_minus_area(Ls, cur.S, F);
+    r.stretch_energy_initial = cur.E;
+    // The fixed-point iteration of SEM is not monotone: iterate as published, keep the
+    // fold-free iterate with the lowest authalic energy E_A, stop after 8 steps without a
+    // new best (or on the relative tolerance).
+    Stage best_stage = cur;
+    double best_EA = authalic_energy(cur.S, F, target, nullptr);
+    int since_best = 0;
+    // Fold allowance: a step is damped (see step) until it has at most this many folded
+    // faces, and only iterates within it can be kept.
+    const int max_folds = std::max(cur.folded, int(std::min(1.0, fold_allowance) * double(m)));
+    for (int it = 0; it < opt.stretch_iterations; ++it) {
+      // The stretch-weighted Laplacian of a badly folded image can be indefinite: then the
+      // fixed point cannot continue, and the best iterate so far is kept.
+      Stage s;
+      try {
+        s = step(Ls, opt.stretch_radius, cur, std::max(cur.folded, max_folds));
+      } catch (const Error&) {
+        break;
       }
-      const double dmax = D.rowwise().norm().maxCoeff();
-      if (!(dmax > 0)) break;
-      if (alpha < 0) alpha = 0.5 * mean_edge / dmax;
-      alpha = std::min(2 * alpha, 0.5 * mean_edge / dmax);  // no vertex moves more than half a mean edge
-      bool ok = false;
-      double En = E;
-      int fn = folded;
-      for (int ls = 0; ls < 40; ++ls) {
-        Sn = S + alpha * D;
-        Sn.rowwise().normalize();  // retraction
-        En = authalic_energy(Sn, F, target, nullptr);
-        if (std::isfinite(En) && En <= E + 1e-4 * alpha * slope) {
-          fn = spherical_folded_faces(Sn, F);
-          if (fn <= folded) {
-            ok = true;
-            break;
-          }
+      if (s.folded < 0) break;  // even the shortest damped step adds folds
+      if (s.t < 1) ++r.stretch_damped_steps;
+      Eigen::SparseMatrix<double> Ln = stretch_laplacian(s.S);
+      s.E = energy_minus_area(Ln, s.S, F);
+      if (!std::isfinite(s.E)) break;
+      cur = std::move(s);
+      Ls = std::move(Ln);
+      r.stretch_iterations = it + 1;
+      report(progress, "ball/sphere-map", 0.3 + 0.7 * (it + 1) / opt.stretch_iterations);
+      Eigen::MatrixXd Sn = cur.S;
+      Sn.rowwise().normalize();
+      const double EA = authalic_energy(Sn, F, target, nullptr);
+      if (cur.folded <= max_folds && EA < best_EA) {
+        const double rel = (best_EA - EA) / std::max(1e-300, best_EA);
+        best_stage = cur;
+        best_EA = EA;
+        since_best = 0;
+        if (rel < opt.stretch_tolerance) break;
+      } else if (++since_best >= 8) {
+        break;
+      }
+    }
+    cur = std::move(best_stage);
+    r.stretch_folded_faces = cur.folded;
+    r.stretch_energy = cur.E;
+    r.S = cur.S;
+    r.S.rowwise().normalize();
+    // SEM may leave a few folded faces on strongly stretched parts: untangle them locally.
+    if (cur.folded > 0) untangle_sphere(r.S, F, 200);
+
+    // ---- 4. Riemannian preconditioned CG on the authalic energy (Sutti & Yueh 2024).
+    {
+      Eigen::MatrixXd& S = r.S;
+      Eigen::MatrixXd G, Gn, H, Hn, D, Sn;
+      double E = authalic_energy(S, F, target, &G);
+      r.authalic_energy_initial = E;
+      int folded = spherical_folded_faces(S, F);
+      // Preconditioner: inverse lumped image vertex areas (the mass matrix of the current
+      // sphere mesh), so a vertex moves in proportion to its local scale; the exponentially
+      // small triangles the conformal stage leaves on thin parts cannot flip in one step.
+      Eigen::VectorXd lump(n);
+      auto precondition = [&](const Eigen::MatrixXd& Sx, const Eigen::MatrixXd& Gx, Eigen::MatrixXd& Hx) {
+        lump.setZero();
+        for (Eigen::Index f = 0; f < m; ++f) {
+          const Eigen::Vector3d p = Sx.row(F(f, 0)), q = Sx.row(F(f, 1)), r = Sx.row(F(f, 2));
+          const double a = (q - p).cross(r - p).norm() / 6.0;
+          for (int c = 0; c < 3; ++c) lump(F(f, c)) += a;
         }
-        alpha *= 0.5;
+        const double floor = 1e-12 * lump.sum();
+        Hx.resize(n, 3);
+        for (Eigen::Index i = 0; i < n; ++i) Hx.row(i) = Gx.row(i) / std::max(lump(i), floor);
+        tangent_project(Sx, Hx);
+      };
+      double mean_edge = 0;
+      for (Eigen::Index f = 0; f < m; ++f) mean_edge += (S.row(F(f, 0)) - S.row(F(f, 1))).norm();
+      mean_edge /= double(m);
+      tangent_project(S, G);
+      precondition(S, G, H);
+      D = -H;
+      double gh = G.cwiseProduct(H).sum();
+      double alpha = -1;
+      for (int it = 0; it < opt.authalic_iterations; ++it) {
+        double slope = G.cwiseProduct(D).sum();
+        if (!(slope < 0)) {
+          D = -H;
+          slope = -gh;
+          if (!(slope < 0)) break;
+        }
+        const double dmax = D.rowwise().norm().maxCoeff();
+        if (!(dmax > 0)) break;
+        if (alpha < 0) alpha = 0.5 * mean_edge / dmax;
+        alpha = std::min(2 * alpha, 0.5 * mean_edge / dmax);  // no vertex moves more than half a mean edge
+        bool ok = false;
+        double En = E;
+        int fn = folded;
+        for (int ls = 0; ls < 40; ++ls) {
+          Sn = S + alpha * D;
+          Sn.rowwise().normalize();  // retraction
+          En = authalic_energy(Sn, F, target, nullptr);
+          if (std::isfinite(En) && En <= E + 1e-4 * alpha * slope) {
+            fn = spherical_folded_faces(Sn, F);
+            if (fn <= folded) {
+              ok = true;
+              break;
+            }
+          }
+          alpha *= 0.5;
+        }
+        if (!ok) {
+          if (D.isApprox(-H)) break;
+          D = -H;  // restart along the preconditioned gradient
+          alpha = -1;
+          continue;
+        }
+        const double rel = (E - En) / std::max(1e-300, std::abs(E));
+        S.swap(Sn);
+        folded = fn;
+        E = authalic_energy(S, F, target, &Gn);
+        tangent_project(S, Gn);
+        precondition(S, Gn, Hn);
+        tangent_project(S, D);    // vector transport by projection
+        tangent_project(S, H);
+        const double ghn = Gn.cwiseProduct(Hn).sum();
+        const double beta = std::max(0.0, (ghn - Gn.cwiseProduct(H).sum()) / gh);  // PR+
+        D = -Hn + beta * D;
+        G.swap(Gn);
+        H.swap(Hn);
+        gh = ghn;
+        r.authalic_iterations = it + 1;
+        if (it % 10 == 0) report(progress, "ball/sphere-map", 1.0);
+        if (rel < opt.authalic_tolerance) break;
       }
-      if (!ok) {
-        if (D.isApprox(-H)) break;
-        D = -H;  // restart along the preconditioned gradient
-        alpha = -1;
-        continue;
-      }
-      const double rel = (E - En) / std::max(1e-300, std::abs(E));
-      S.swap(Sn);
-      folded = fn;
-      E = authalic_energy(S, F, target, &Gn);
-      tangent_project(S, Gn);
-      precondition(S, Gn, Hn);
-      tangent_project(S, D);    // vector transport by projection
-      tangent_project(S, H);
-      const double ghn = Gn.cwiseProduct(Hn).sum();
-      const double beta = std::max(0.0, (ghn - Gn.cwiseProduct(H).sum()) / gh);  // PR+
-      D = -Hn + beta * D;
-      G.swap(Gn);
-      H.swap(Hn);
-      gh = ghn;
-      res.authalic_iterations = it + 1;
-      if (it % 10 == 0) report(progress, "ball/sphere-map", 1.0);
-      if (rel < opt.authalic_tolerance) break;
+      r.authalic_energy = E;
     }
-    res.authalic_energy = E;
-    if (DBG()) std::fprintf(stderr, "DBG rcg: it %d E %g -> %g folded %d\n", res.authalic_iterations, res.authalic_energy_initial, E, folded);
-  }
+    {
+      const Eigen::VectorXd As = areas3(r.S, F);
+      const double tot = As.sum();
+      double mean = 0, mx = 0;
+      for (Eigen::Index f = 0; f < m; ++f) {
+        const double d = std::abs(As(f) / tot / target(f) - 1);
+        mean += d;
+        mx = std::max(mx, d);
+      }
+      r.area_distortion_mean = mean / double(m);
+      r.area_distortion_max = mx;
+    }
+    r.folded_faces = spherical_folded_faces(r.S, F);
+  };
   {
-    const Eigen::VectorXd As = areas3(res.S, F);
-    const double tot = As.sum();
-    double mean = 0, mx = 0;
-    for (Eigen::Index f = 0; f < m; ++f) {
-      const double d = std::abs(As(f) / tot / target(f) - 1);
-      mean += d;
-      mx = std::max(mx, d);
+    const int cem_iterations = res.conformal_iterations;
+    const double cem_energy = res.conformal_energy;
+    // Candidates: SEM as published (undamped) and damped (see SphereParamOptions), each
+    // from the CEM result and, when CEM changed the map, from the linear map (the conformal
+    // steps can compress thin parts further). The result with the fewest folded faces, then
+    // the lowest E_A, is kept; the published path alone is the first candidate.
+    struct Candidate {
+      const Stage* start;
+      int start_id;
+      double allowance;
+    };
+    std::vector<Candidate> cand = {{&cur, 0, 1.0}};
+    if (opt.stretch_fold_allowance < 1) cand.push_back({&cur, 0, opt.stretch_fold_allowance});
+    if (opt.try_linear_start && cem_iterations > 0) {
+      cand.push_back({&linear_stage, 1, 1.0});
+      if (opt.stretch_fold_allowance < 1) cand.push_back({&linear_stage, 1, opt.stretch_fold_allowance});
     }
-    res.area_distortion_mean = mean / double(m);
-    res.area_distortion_max = mx;
+    for (size_t k = 0; k < cand.size(); ++k) {
+      SphereParamResult r;
+      stretch_and_refine(*cand[k].start, cand[k].allowance, r);
+      r.start_stage = cand[k].start_id;
+      r.stretch_damped = cand[k].allowance < 1;
+      if (k == 0 || r.folded_faces < res.folded_faces ||
+          (r.folded_faces == res.folded_faces && r.authalic_energy < res.authalic_energy))
+        res = std::move(r);
+    }
+    res.conformal_iterations = cem_iterations;
+    res.conformal_energy = cem_energy;
   }
-  res.folded_faces = spherical_folded_faces(res.S, F);
   report(progress, "ball/sphere-map", 1.0);
   res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return res;

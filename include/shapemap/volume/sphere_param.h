@@ -17,6 +17,10 @@
 // (and stop the stage). SEM is run as published (not monotone); the iterate with the lowest
 // authalic energy E_A is kept, its folded faces (if any) are untangled locally, then the
 // Riemannian refinement below (4.) polishes E_A without creating folds.
+// Steps 3-4 run for several candidates (published SEM and a damped SEM, each from the CEM
+// result and from the linear map when CEM changed it; see stretch_fold_allowance and
+// try_linear_start) and the result with the fewest folded faces, then the lowest E_A, is
+// kept: on coarse creatures the undamped SEM fixed point folds hundreds of faces.
 #pragma once
 #include "shapemap/mesh.h"
 #include "shapemap/progress.h"
@@ -30,6 +34,16 @@ struct SphereParamOptions {
   int stretch_iterations = 50;       // SEM alternations (Yueh et al. 2019)
   double stretch_tolerance = 1e-7;   // stop SEM when the relative decrease is below this
   double stretch_radius = 1.3;       // disk |z| < R re-solved in each SEM step
+  // Damped SEM candidate (not in Yueh et al. 2019; added for coarse creatures, where the
+  // undamped fixed point folds hundreds of faces): a step whose image has more than
+  // max(folds of the start, stretch_fold_allowance * #faces) folded faces is damped
+  // (t = 1/2, ..., 1/64 of the way); SEM stops when no damped step is within it. It runs
+  // besides the published (undamped) SEM and the result with fewer folded faces, then lower
+  // E_A, is kept. >= 1 = only the published SEM.
+  double stretch_fold_allowance = 0.01;
+  // Also run SEM + refinement from the linear map (skipping CEM) when CEM changed it
+  // (CEM can compress thin parts further); selection as above.
+  bool try_linear_start = true;
   // 4. Riemannian refinement of the authalic energy E_A (Sutti & Yueh 2024, "Riemannian
   // gradient descent methods for spherical area-preserving mappings"): projected-gradient
   // steps on the product of spheres with retraction by normalization, preconditioned by
@@ -46,6 +60,9 @@ struct SphereParamResult {
   double stretch_energy_initial = 0; // E_S - A(S) before SEM
   double stretch_energy = 0;         // E_S - A(S) after SEM
   int stretch_folded_faces = 0;      // folded faces of the best SEM iterate (before untangling)
+  int stretch_damped_steps = 0;      // SEM steps that were damped (t < 1)
+  int start_stage = 0;               // start of SEM kept: 0 = CEM result, 1 = linear map
+  bool stretch_damped = false;       // the kept result used the damped SEM (fold allowance)
   int authalic_iterations = 0;       // Riemannian refinement iterations taken
   double authalic_energy_initial = 0; // E_A = A(e)/A(S) E_S - A(S) (shares) before refinement
   double authalic_energy = 0;         // E_A at the end
