@@ -3,6 +3,7 @@
 // (conformal / area distortion, mean curvature error, flipped triangles, reversibility).
 #include "shapemap/io.h"
 #include "shapemap/maps.h"
+#include "cli/cli_run.h"
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <cmath>
@@ -16,11 +17,7 @@ namespace fs = std::filesystem;
 using namespace shapemap;
 
 namespace {
-int run(const std::string& args) {
-  std::string cmd = std::string(SHAPEMAP_BINARY) + " -q " + args + " > /dev/null 2>&1";
-  int rc = std::system(cmd.c_str());
-  return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
-}
+int run(const std::string& args) { return shapemap::testing::run_quiet(args); }
 nlohmann::json read_json(const fs::path& p) {
   std::ifstream in(p);
   return nlohmann::json::parse(in);

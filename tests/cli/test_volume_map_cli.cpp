@@ -2,6 +2,7 @@
 #include "shapemap/io.h"
 #include "shapemap/maps.h"
 #include "volume/volume_test_util.h"
+#include "cli/cli_run.h"
 #include <gtest/gtest.h>
 #include <cstdlib>
 #include <filesystem>
@@ -13,11 +14,7 @@ namespace fs = std::filesystem;
 using namespace shapemap;
 
 namespace {
-int run(const std::string& args) {
-  std::string cmd = std::string(SHAPEMAP_BINARY) + " -q " + args + " > /dev/null 2>&1";
-  int rc = std::system(cmd.c_str());
-  return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
-}
+int run(const std::string& args) { return shapemap::testing::run_quiet(args); }
 struct Files {
   fs::path dir;
   Files() {
