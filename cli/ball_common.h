@@ -40,6 +40,7 @@ inline nlohmann::json ball_metrics_json(const BallMetrics& m) {
   j["folded_tets"] = m.folded_tets;
   j["positive_tets"] = m.positive_tets;
   j["negative_tets"] = m.negative_tets;
+  j["flipped_boundary_faces"] = m.flipped_boundary_faces;
   j["boundary_sphere_error"] = m.boundary_sphere_error;
   j["max_radius"] = m.max_radius;
   return j;
@@ -61,8 +62,11 @@ inline nlohmann::json ball_result_json(const BallParamResult& r) {
   j["inverted_tets_after_vsem"] = r.inverted_vsem;
   j["inverted_tets_after_cg"] = r.inverted_cg;
   j["polish_iterations"] = r.polish_iterations;
+  j["penalty_rounds"] = r.penalty_rounds;
   j["E_I_after_cg"] = r.energy_cg;
   j["inverted_tets_final"] = r.inverted_final;
+  j["flipped_boundary_faces_after_cg"] = r.flipped_boundary_faces_cg;
+  j["flipped_boundary_faces_final"] = r.flipped_boundary_faces_final;
   j["preconditioner_refreshes"] = r.preconditioner_refreshes;
   j["sphere_map_area_distortion"] = {{"mean", r.sphere_area_distortion_mean},
                                      {"max", r.sphere_area_distortion_max}};
@@ -71,7 +75,9 @@ inline nlohmann::json ball_result_json(const BallParamResult& r) {
                   {"cg", r.seconds_cg},            {"cg_preconditioner_solves", r.seconds_cg_solve},
                   {"cg_energy_gradient", r.seconds_cg_eval},
                   {"post_untangle_polish", r.seconds_post},
-                  {"cg_per_iteration", r.iterations ? r.seconds_cg / r.iterations : 0.0},
+                  {"cg_per_iteration", r.iterations > r.polish_iterations
+                                           ? r.seconds_cg / (r.iterations - r.polish_iterations)
+                                           : 0.0},
                   {"cg_cpu", r.cpu_seconds_cg}};
   return j;
 }

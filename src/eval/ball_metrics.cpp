@@ -1,6 +1,7 @@
 // Metrics of ball maps: D_V (Eq. 45), E_I (Eq. 2), foldings, boundary-on-sphere error.
 #include "shapemap/eval/ball_metrics.h"
 #include "shapemap/error.h"
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <vector>
@@ -74,6 +75,16 @@ BallMetrics ball_metrics(const TetMesh& mesh, const Eigen::MatrixXd& f) {
   m.folded_tets = std::min(m.positive_tets, m.negative_tets);
   const TetBoundary b = boundary_surface(mesh);
   m.num_boundary_vertices = int(b.to_volume.size());
+  int pos = 0, neg = 0;
+  for (Eigen::Index q = 0; q < b.surface.F.rows(); ++q) {
+    const Eigen::Vector3d fi = f.row(b.to_volume(b.surface.F(q, 0))), fj = f.row(b.to_volume(b.surface.F(q, 1))),
+                          fk = f.row(b.to_volume(b.surface.F(q, 2)));
+    if (fi.dot(fj.cross(fk)) > 0)
+      ++pos;
+    else
+      ++neg;
+  }
+  m.flipped_boundary_faces = std::min(pos, neg);
   for (Eigen::Index k = 0; k < b.to_volume.size(); ++k)
     m.boundary_sphere_error =
         std::max(m.boundary_sphere_error, std::abs(f.row(b.to_volume(k)).norm() - 1.0));

@@ -1,4 +1,4 @@
-// CHOLMOD supernodal LL^T behind shapemap::SparseCholesky.
+// CHOLMOD supernodal LL^T (or simplicial LDL^T) behind shapemap::SparseCholesky.
 //
 // The factor is owned through the raw CHOLMOD API (the matrix views come from Eigen's
 // CholmodSupport) so that solves can use their own cholmod_common: CHOLMOD only reads
@@ -16,9 +16,9 @@ struct SparseCholesky::Impl {
   cholmod_common common;
   cholmod_factor* factor = nullptr;
   int n = 0;
-  Impl() {
+  explicit Impl(SparseCholesky::Method method) {
     cholmod_start(&common);
-    common.supernodal = CHOLMOD_SUPERNODAL;
+    common.supernodal = method == SparseCholesky::Method::Simplicial ? CHOLMOD_SIMPLICIAL : CHOLMOD_SUPERNODAL;
     common.final_asis = 1;
     common.print = 0;
     common.error_handler = nullptr;  // errors are reported by status codes; we throw
@@ -87,18 +87,18 @@ struct SparseCholesky::Impl {
   }
 };
 
-SparseCholesky::SparseCholesky() : impl_(std::make_unique<Impl>()) {}
+SparseCholesky::SparseCholesky(Method method) : method_(method), impl_(std::make_unique<Impl>(method)) {}
 SparseCholesky::~SparseCholesky() = default;
 SparseCholesky::SparseCholesky(SparseCholesky&&) noexcept = default;
 SparseCholesky& SparseCholesky::operator=(SparseCholesky&&) noexcept = default;
 
 void SparseCholesky::compute(const Eigen::SparseMatrix<double>& A) {
-  if (!impl_) impl_ = std::make_unique<Impl>();
+  if (!impl_) impl_ = std::make_unique<Impl>(method_);
   impl_->run_factorize(A, true);
 }
 
 void SparseCholesky::factorize(const Eigen::SparseMatrix<double>& A) {
-  if (!impl_) impl_ = std::make_unique<Impl>();
+  if (!impl_) impl_ = std::make_unique<Impl>(method_);
   impl_->run_factorize(A, false);
 }
 

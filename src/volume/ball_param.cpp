@@ -5,6 +5,7 @@
 #include "shapemap/checks.h"
 #include "shapemap/error.h"
 #include "shapemap/geometry/sparse_cholesky.h"
+#include "shapemap/optim/lbfgs.h"
 #include "shapemap/optim/line_search.h"
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -210,7 +211,31 @@ Eigen::VectorXd SphericalBallEnergy::from_map(const Eigen::MatrixXd& f) const {
 
 double SphericalBallEnergy::energy(const Eigen::VectorXd& x) const {
   to_map(x, f_);
-  return E_.energy(f_);
+  return E_.energy(f_) + (mu_ > 0 ? fold_penalty(f_, nullptr) : 0.0);
+}
+
+double SphericalBallEnergy::fold_penalty(const Eigen::MatrixXd& f, Eigen::MatrixXd* G) const {
+  const Eigen::MatrixXi& T = E_.tets();
+  const Eigen::VectorXd& vol = E_.domain_volumes();
+  const double scale = floor_ * (4.0 * M_PI / 3.0) / E_.domain_volume();
+  double P = 0;
+  // Serial: only the few tets below the floor contribute, the loop is memory-bound.
+  for (Eigen::Index t = 0; t < T.rows(); ++t) {
+    const Eigen::Vector3d a = f.row(T(t, 0)), b = f.row(T(t, 1)), c = f.row(T(t, 2)), d = f.row(T(t, 3));
+    const Eigen::Vector3d gb = (c - a).cross(d - a) / 6.0;  // d|f(tau)| / d f_b
+    const double v = (b - a).dot(gb);
+    const double gap = scale * vol(t) - v;
+    if (!(gap > 0)) continue;
+    P += mu_ * gap * gap / vol(t);
+    if (!G) continue;
+    const double w = -2.0 * mu_ * gap / vol(t);
+    const Eigen::Vector3d gc = (d - a).cross(b - a) / 6.0, gd = (b - a).cross(c - a) / 6.0;
+    G->row(T(t, 1)) += w * gb.transpose();
+    G->row(T(t, 2)) += w * gc.transpose();
+    G->row(T(t, 3)) += w * gd.transpose();
+    G->row(T(t, 0)) -= w * (gb + gc + gd).transpose();
+  }
+  return P;
 }
 
 int SphericalBallEnergy::inverted_tets(const Eigen::VectorXd& x) const {
@@ -222,7 +247,8 @@ int SphericalBallEnergy::inverted_tets(const Eigen::VectorXd& x) const {
 
 double SphericalBallEnergy::energy_and_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& g) const {
   to_map(x, f_);
-  const double e = E_.energy_and_gradient(f_, G_);
+  double e = E_.energy_and_gradient(f_, G_);
+  if (mu_ > 0) e += fold_penalty(f_, &G_);
   g.resize(num_variables());
   for (int i = 0; i < nI_; ++i)
     for (int d = 0; d < 3; ++d) g(d * nI_ + i) = G_(interior_(i), d);  // Eq. 10a
@@ -344,7 +370,8 @@ BallParamResult ball_parameterization(const TetMesh& mesh, const BallParamOption
   // Steps 13-16: L_V(f^(0)), preconditioner blocks, Cholesky factors (once).
   t0 = Clock::now();
   Eigen::SparseMatrix<double> L;
-  SparseCholesky cholI, cholB;
+  // Simplicial: the CG loop is solve-bound (two solves per iteration), see sparse_cholesky.h.
+  SparseCholesky cholI(SparseCholesky::Method::Simplicial), cholB(SparseCholesky::Method::Simplicial);
   // L_V(f) is positive definite while the image tets are well shaped; folded or nearly
   // flat image tets can make their modified cotangent weights break that. Then the
   // preconditioner falls back to L_V(e) of the (scaled) input, which is only a
@@ -562,41 +589,87 @@ BallParamResult ball_parameterization(const TetMesh& mesh, const BallParamOption
 
   res.seconds_cg = since(t_cg);
   res.cpu_seconds_cg = double(std::clock() - c_cg) / CLOCKS_PER_SEC;
+  // The cost split reports the CG loop of Algorithm 1 only; the post-step has its own time.
+  const double eval_cg = res.seconds_cg_eval, solve_cg = res.seconds_cg_solve;
   Eigen::MatrixXd f;
   sbe.to_map(x, f);
   res.inverted_cg = sbe.inverted_tets(x);
   res.energy_cg = E;
-  // Post-step (docs/methods.md): local untangling of the remaining folded tets, then CG
-  // polishing in which no step may increase the number of folded tets, then untangling
-  // again. Each stage is kept only if it does not increase the fold count.
-  if (opt.untangle_rounds > 0 && res.inverted_cg > 0) {
-    const auto t_post = Clock::now();
-    Eigen::MatrixXd fu = f;
-    if (untangle_interior(Tp, nI, opt.untangle_rounds, fu) < res.inverted_cg) {
-      f.swap(fu);
-      if (opt.polish_iterations > 0) {
-        x = sbe.from_map(f);
-        E = objective(x, g);
-        const int it0 = res.iterations;
-        cg_loop(opt.polish_iterations, true);
-        res.polish_iterations = res.iterations - it0;
-        sbe.to_map(x, f);
-        fu = f;
-        untangle_interior(Tp, nI, opt.untangle_rounds, fu);
-        Eigen::VectorXd v0, v1;
-        energy.image_volumes(f, v0);
-        energy.image_volumes(fu, v1);
-        if ((v1.array() <= 0).count() < (v0.array() <= 0).count()) f.swap(fu);
-      }
-      E = energy.energy(f);
-    }
-    res.seconds_post = since(t_post);
-  }
-  {
+  // Post-step (docs/methods.md): (1) local untangling of the remaining folded tets;
+  // (2) if folds remain, CG on E_I + fold penalty with the weight raised tenfold per round
+  // until none is left; (3) CG polishing of E_I alone in which no step may increase the
+  // number of folded tets. Each stage is kept only if it lowers the fold count.
+  auto count_folds = [&](const Eigen::MatrixXd& fm) {
     Eigen::VectorXd vol;
-    energy.image_volumes(f, vol);
-    res.inverted_final = int((vol.array() <= 0).count());
+    energy.image_volumes(fm, vol);
+    return int((vol.array() <= 0).count());
+  };
+  // Boundary faces whose image triangle is negatively oriented as seen from the origin
+  // (reported, not repaired: the post-step works on tet volumes). With every tet positive
+  // these are long thin boundary triangles whose plane passes near the centre: the image
+  // boundary is then an inscribed but non-convex polyhedron.
+  const Eigen::MatrixXi& Fo = energy.boundary_faces();
+  auto count_flipped = [&](const Eigen::MatrixXd& fm) {
+    int k = 0;
+    for (Eigen::Index q = 0; q < Fo.rows(); ++q)
+      k += !(Eigen::Vector3d(fm.row(Fo(q, 0))).dot(
+                 Eigen::Vector3d(fm.row(Fo(q, 1))).cross(Eigen::Vector3d(fm.row(Fo(q, 2))))) > 0);
+    return k;
+  };
+  const auto& defects = count_folds;
+  res.flipped_boundary_faces_cg = count_flipped(f);
+  const int defects_cg = res.inverted_cg;
+  if (defects_cg > 0 && (opt.untangle_rounds > 0 || opt.penalty_rounds > 0)) {
+    const auto t_post = Clock::now();
+    const bool converged = res.converged;
+    const int it0 = res.iterations;
+    int now = defects_cg;
+    Eigen::MatrixXd fu = f;
+    if (opt.untangle_rounds > 0 && res.inverted_cg > 0) {
+      untangle_interior(Tp, nI, opt.untangle_rounds, fu);
+      const int k = defects(fu);
+      if (k < now) {
+        f = fu;
+        now = k;
+      }
+    }
+    if (now > 0 && opt.penalty_rounds > 0) {
+      x = sbe.from_map(f);
+      double mu = opt.penalty_weight;
+      int k = now;
+      for (int r = 0; r < opt.penalty_rounds && k > 0; ++r, mu *= 10) {
+        sbe.set_fold_penalty(mu, opt.penalty_floor);
+        LbfgsOptions lo;
+        lo.max_iterations = opt.polish_iterations;
+        lo.grad_tol = 0;
+        const LbfgsResult lr = lbfgs_minimize(objective, x, lo);
+        res.iterations += lr.iterations;
+        sbe.to_map(x, fu);
+        k = defects(fu);
+        ++res.penalty_rounds;
+      }
+      sbe.set_fold_penalty(0, 0);
+      if (k < now) {
+        f = fu;
+        now = k;
+      }
+    }
+    if (now < defects_cg && opt.polish_iterations > 0) {
+      x = sbe.from_map(f);
+      E = objective(x, g);
+      cg_loop(opt.polish_iterations, true);
+      sbe.to_map(x, fu);
+      if (defects(fu) <= now) f.swap(fu);
+    }
+    res.polish_iterations = res.iterations - it0;
+    res.converged = converged;
+    E = energy.energy(f);
+    res.seconds_post = since(t_post);
+    res.seconds_cg_eval = eval_cg;
+    res.seconds_cg_solve = solve_cg;
   }
+  res.flipped_boundary_faces_final = count_flipped(f);
+  res.inverted_final = count_folds(f);
   res.energy_final = E;
   res.f.resize(n, 3);
   for (int i = 0; i < n; ++i) res.f.row(i) = f.row(perm(i));

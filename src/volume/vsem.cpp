@@ -301,7 +301,7 @@ VsemResult vsem_fixed_point(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T,
   for (Eigen::Index k = 0; k < boundary.size(); ++k) f.row(perm(boundary(k))) = fB.row(k);
 
   Eigen::SparseMatrix<double> L, LII;
-  SparseCholesky chol;
+  SparseCholesky chol(SparseCholesky::Method::Simplicial);  // 16 factor+solve pairs, see sparse_cholesky.h
   Eigen::MatrixXd best;
   double best_E = std::numeric_limits<double>::infinity();
   for (int it = 0; it <= opt.iterations; ++it) {

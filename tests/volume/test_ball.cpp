@@ -71,6 +71,61 @@ TEST(BallParam, SphericalGradientMatchesFiniteDifferences) {
   }
 }
 
+// The fold penalty of the post-step (SphericalBallEnergy::set_fold_penalty) on a map with
+// inverted and thin tets: value against a brute-force sum, gradient against central
+// differences in every variable.
+TEST(BallParam, FoldPenaltyGradientMatchesFiniteDifferences) {
+  const TetMesh m = blob_tets(3, Eigen::Vector3d(1.0, 0.8, 0.7), 0.1);
+  const IsovolumetricEnergy E(m.V, m.T);
+  Eigen::VectorXi I, B;
+  split(m, I, B);
+  ASSERT_GT(I.size(), 0);
+  SphericalBallEnergy sbe(E, I, B);
+  Eigen::MatrixXd f = m.V;
+  for (int k = 0; k < B.size(); ++k) f.row(B(k)).normalize();
+  std::mt19937 rng(11);
+  std::normal_distribution<double> N(0.0, 1.0);
+  for (int k = 0; k < I.size(); ++k) f.row(I(k)) = 0.8 * f.row(I(k)) + 0.25 * Eigen::RowVector3d(N(rng), N(rng), N(rng));
+  const double mu = 3.0, floor = 0.5;
+  Eigen::VectorXd x = sbe.from_map(f);
+  Eigen::MatrixXd fx;
+  sbe.to_map(x, fx);
+  // Brute force: sum over tets below the floor.
+  Eigen::VectorXd vol;
+  E.image_volumes(fx, vol);
+  const double scale = floor * (4.0 * M_PI / 3.0) / E.domain_volume();
+  double P = 0;
+  int below = 0, inverted = 0;
+  for (int t = 0; t < vol.size(); ++t) {
+    const double gap = scale * E.domain_volumes()(t) - vol(t);
+    if (gap > 0) {
+      P += mu * gap * gap / E.domain_volumes()(t);
+      ++below;
+    }
+    inverted += vol(t) <= 0;
+  }
+  ASSERT_GT(inverted, 0);            // the test map has folds ...
+  ASSERT_LT(below, int(vol.size()));  // ... and tets above the floor
+  EXPECT_NEAR(sbe.energy(x) + 0.0, E.energy(fx), 1e-12);  // mu = 0: plain E_I
+  sbe.set_fold_penalty(mu, floor);
+  EXPECT_NEAR(sbe.fold_penalty(fx, nullptr), P, 1e-12 * std::max(1.0, P));
+  EXPECT_NEAR(sbe.energy(x), E.energy(fx) + P, 1e-12 * std::max(1.0, P));
+  Eigen::VectorXd g;
+  const double e0 = sbe.energy_and_gradient(x, g);
+  EXPECT_NEAR(e0, sbe.energy(x), 1e-12 * std::max(1.0, e0));
+  const double h = 1e-6;
+  double err = 0, gmax = 0;
+  for (int i = 0; i < x.size(); ++i) {
+    Eigen::VectorXd xp = x, xm = x;
+    xp(i) += h;
+    xm(i) -= h;
+    const double fd = (sbe.energy(xp) - sbe.energy(xm)) / (2 * h);
+    err = std::max(err, std::abs(fd - g(i)));
+    gmax = std::max(gmax, std::abs(g(i)));
+  }
+  EXPECT_LT(err, 1e-6 * std::max(1.0, gmax));
+}
+
 TEST(BallParam, PoleAvoidingFrameKeepsPolesEmpty) {
   const TetMesh m = blob_tets(6, Eigen::Vector3d(1, 1, 1), 0.0);
   const TetBoundary tb = boundary_surface(m);
@@ -189,4 +244,18 @@ TEST(BallMetricsTest, DistortionFoldsAndSphereError) {
   }
   // Boundary vertices of the cube-sphere blob with radii ~1 are off the sphere.
   EXPECT_GT(s.boundary_sphere_error, 0.1);
+  // Flipped boundary faces: none for the blob (star-shaped about the origin) and its mirror
+  // image; sending one boundary vertex to its antipode flips some of its faces, never others.
+  EXPECT_EQ(s.flipped_boundary_faces, 0);
+  EXPECT_EQ(r.flipped_boundary_faces, 0);
+  const TetBoundary tb = boundary_surface(m);
+  const int v = tb.to_volume(0);
+  int star = 0;
+  for (Eigen::Index q = 0; q < tb.surface.F.rows(); ++q)
+    star += (tb.surface.F.row(q).array() == 0).any();
+  Eigen::MatrixXd a = m.V;
+  a.row(v) = -m.V.row(v);
+  const BallMetrics w = ball_metrics(m, a);
+  EXPECT_GT(w.flipped_boundary_faces, 0);
+  EXPECT_LE(w.flipped_boundary_faces, star);
 }

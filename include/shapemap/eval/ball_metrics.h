@@ -12,6 +12,10 @@ struct BallMetrics {
   double energy = 0;            // E_I(f) (Eq. 2)
   int positive_tets = 0, negative_tets = 0;  // sign of |f(tau)| (zero counts as negative)
   int folded_tets = 0;          // min(positive, negative) (Table 2 "#Foldings")
+  // Boundary faces whose image triangle f_i . (f_j x f_k) has the minority sign: the
+  // boundary map overlaps itself there even when every tet is positive (a tet squeezed
+  // into the cap between the flipped face and the sphere).
+  int flipped_boundary_faces = 0;
   double boundary_sphere_error = 0;  // max over boundary vertices of | ||f(v)|| - 1 |
   double max_radius = 0;             // max over all vertices of ||f(v)||
 };

@@ -13,7 +13,8 @@
 //
 // Post-step (not in the paper, docs/methods.md): when CG ends with inverted tets, local
 // untangling (max-min ascent of incident volumes; boundary vertices move on the sphere),
-// fold-guarded CG polishing, and untangling again; each stage kept only if it removes folds.
+// then CG on E_I plus a fold penalty of increasing weight, then fold-guarded CG polishing
+// on E_I alone; each stage kept only if it removes folds.
 #pragma once
 #include "shapemap/mesh.h"
 #include "shapemap/progress.h"
@@ -46,11 +47,20 @@ class SphericalBallEnergy {
   // E_I and its gradient in x (Eqs. 10a-10c), g sized like x.
   double energy_and_gradient(const Eigen::VectorXd& x, Eigen::VectorXd& g) const;
 
+  // Fold penalty of the post-step (not in the paper, docs/methods.md): while mu > 0 the
+  // energy is E_I + mu * sum_tau max(0, floor * |tau| (4pi/3) / V(e) - |f(tau)|)^2 / |tau|,
+  // which pushes image tets below `floor` times their volume-preserving size in the unit
+  // ball (in particular inverted ones) back to a positive volume. mu = 0: plain E_I.
+  void set_fold_penalty(double mu, double floor) { mu_ = mu; floor_ = floor; }
+  // The penalty alone at f (n×3); adds its gradient to G when G is non-null.
+  double fold_penalty(const Eigen::MatrixXd& f, Eigen::MatrixXd* G) const;
+
  private:
   const IsovolumetricEnergy& E_;
   Eigen::VectorXi interior_, boundary_;
   int nI_ = 0, nB_ = 0;
   Eigen::Matrix3d Q_ = Eigen::Matrix3d::Identity();
+  double mu_ = 0, floor_ = 0;
   mutable Eigen::MatrixXd f_, G_;
 };
 
@@ -68,7 +78,13 @@ struct BallParamOptions {
                                     // M of L_V(f^(0)) throughout)
   int untangle_rounds = 100;        // post-step: local untangling of folded tets with the
                                     // boundary fixed, at most this many rounds (0: off)
-  int polish_iterations = 100;      // post-step: fold-guarded CG iterations after untangling
+  int polish_iterations = 100;      // post-step: CG iterations per penalty round and for the
+                                    // final fold-guarded polishing
+  int penalty_rounds = 6;           // post-step: rounds of CG on E_I + fold penalty, weight
+                                    // penalty_weight * 10^r, while folds remain (0: off)
+  double penalty_weight = 1.0;      // mu of the first round (SphericalBallEnergy::set_fold_penalty)
+  double penalty_floor = 0.05;      // image volumes are pushed above this fraction of their
+                                    // volume-preserving size
   bool wolfe_model_step = false;    // accept the Eq. 17 step only if it satisfies Eq. 18
                                     // (else the Wolfe search starts from it)
   double pole_guard = 0.25;         // re-choose the frame when min sin(theta) drops below
@@ -89,7 +105,8 @@ struct BallParamResult {
   double energy_final = 0;          // E_I at the end
   std::vector<double> energies;     // E_I after each CG iteration
   int iterations = 0;               // CG iterations (including polish_iterations)
-  int polish_iterations = 0;        // fold-guarded CG iterations of the post-step
+  int polish_iterations = 0;        // CG iterations of the post-step (penalty + polishing)
+  int penalty_rounds = 0;           // fold-penalty rounds taken by the post-step
   int quadratic_steps = 0;          // iterations that took the Eq. 17 step
   int wolfe_steps = 0;              // iterations that fell back to the strong Wolfe search
   int restarts = 0;                 // steepest-descent restarts (non-descent p, new frame)
@@ -98,6 +115,8 @@ struct BallParamResult {
   int preconditioner_refreshes = 0; // re-factorizations of M (preconditioner_refresh)
   int fold_backtracks = 0;          // step halvings by prevent_new_folds
   int inverted_vsem = 0, inverted_final = 0;  // tets with |f(tau)| <= 0
+  int flipped_boundary_faces_cg = 0, flipped_boundary_faces_final = 0;  // boundary faces whose
+                                    // image is negatively oriented on the sphere
   int inverted_cg = 0;              // ... at the end of CG (before the untangling post-step)
   double energy_cg = 0;             // E_I at the end of CG (before the untangling post-step)
   double cpu_seconds_cg = 0;        // process CPU time of the CG loop (all threads)
