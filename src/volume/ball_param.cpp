@@ -235,6 +235,21 @@ double SphericalBallEnergy::fold_penalty(const Eigen::MatrixXd& f, Eigen::Matrix
     G->row(T(t, 3)) += w * gd.transpose();
     G->row(T(t, 0)) -= w * (gb + gc + gd).transpose();
   }
+  if (!penalty_faces_.empty()) {
+    const Eigen::MatrixXi& Fb = E_.boundary_faces();
+    const double target = 2.0 * 4.0 * M_PI / double(Fb.rows());  // det of a mean face
+    for (int q : penalty_faces_) {
+      const Eigen::Vector3d a = f.row(Fb(q, 0)), b = f.row(Fb(q, 1)), c = f.row(Fb(q, 2));
+      const double gap = floor_ * target - a.dot(b.cross(c));
+      if (!(gap > 0)) continue;
+      P += mu_ * gap * gap / target;
+      if (!G) continue;
+      const double w = -2.0 * mu_ * gap / target;
+      G->row(Fb(q, 0)) += w * b.cross(c).transpose();
+      G->row(Fb(q, 1)) += w * c.cross(a).transpose();
+      G->row(Fb(q, 2)) += w * a.cross(b).transpose();
+    }
+  }
   return P;
 }
 
@@ -635,10 +650,24 @@ BallParamResult ball_parameterization(const TetMesh& mesh, const BallParamOption
     }
     if (now > 0 && opt.penalty_rounds > 0) {
       x = sbe.from_map(f);
+      // Boundary faces at the vertices of folded tets are penalized too (their image
+      // orientation on the sphere, same floor): a fold next to a locally folded boundary
+      // cannot be removed by the tet term alone (measured: creature seed 2).
+      std::vector<int> faces;
+      {
+        Eigen::VectorXd vol;
+        energy.image_volumes(f, vol);
+        std::vector<char> near(n, 0);
+        for (Eigen::Index t = 0; t < Tp.rows(); ++t)
+          if (!(vol(t) > 0))
+            for (int c = 0; c < 4; ++c) near[Tp(t, c)] = 1;
+        for (Eigen::Index q = 0; q < Fo.rows(); ++q)
+          if (near[Fo(q, 0)] || near[Fo(q, 1)] || near[Fo(q, 2)]) faces.push_back(int(q));
+      }
       double mu = opt.penalty_weight;
       int k = now;
       for (int r = 0; r < opt.penalty_rounds && k > 0; ++r, mu *= 10) {
-        sbe.set_fold_penalty(mu, opt.penalty_floor);
+        sbe.set_fold_penalty(mu, opt.penalty_floor, faces);
         LbfgsOptions lo;
         lo.max_iterations = opt.polish_iterations;
         lo.grad_tol = 0;

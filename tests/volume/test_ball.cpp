@@ -88,6 +88,8 @@ TEST(BallParam, FoldPenaltyGradientMatchesFiniteDifferences) {
   for (int k = 0; k < I.size(); ++k) f.row(I(k)) = 0.8 * f.row(I(k)) + 0.25 * Eigen::RowVector3d(N(rng), N(rng), N(rng));
   const double mu = 3.0, floor = 0.5;
   Eigen::VectorXd x = sbe.from_map(f);
+  // Move the boundary too, so that some boundary faces fall below the floor.
+  for (int i = 3 * int(I.size()); i < x.size(); ++i) x(i) += 0.15 * N(rng);
   Eigen::MatrixXd fx;
   sbe.to_map(x, fx);
   // Brute force: sum over tets below the floor.
@@ -106,8 +108,24 @@ TEST(BallParam, FoldPenaltyGradientMatchesFiniteDifferences) {
   }
   ASSERT_GT(inverted, 0);            // the test map has folds ...
   ASSERT_LT(below, int(vol.size()));  // ... and tets above the floor
+  // Boundary faces (every other one) with their orientation term.
+  const Eigen::MatrixXi& Fb = E.boundary_faces();
+  std::vector<int> faces;
+  const double target = 2.0 * 4.0 * M_PI / double(Fb.rows());
+  int faces_below = 0;
+  for (int q = 0; q < Fb.rows(); q += 2) {
+    faces.push_back(q);
+    const Eigen::Vector3d a = fx.row(Fb(q, 0)), b = fx.row(Fb(q, 1)), c = fx.row(Fb(q, 2));
+    const double gap = floor * target - a.dot(b.cross(c));
+    if (gap > 0) {
+      P += mu * gap * gap / target;
+      ++faces_below;
+    }
+  }
+  ASSERT_GT(faces_below, 0);
+  ASSERT_LT(faces_below, int(faces.size()));
   EXPECT_NEAR(sbe.energy(x) + 0.0, E.energy(fx), 1e-12);  // mu = 0: plain E_I
-  sbe.set_fold_penalty(mu, floor);
+  sbe.set_fold_penalty(mu, floor, faces);
   EXPECT_NEAR(sbe.fold_penalty(fx, nullptr), P, 1e-12 * std::max(1.0, P));
   EXPECT_NEAR(sbe.energy(x), E.energy(fx) + P, 1e-12 * std::max(1.0, P));
   Eigen::VectorXd g;
@@ -124,6 +142,23 @@ TEST(BallParam, FoldPenaltyGradientMatchesFiniteDifferences) {
     gmax = std::max(gmax, std::abs(g(i)));
   }
   EXPECT_LT(err, 1e-6 * std::max(1.0, gmax));
+  // The boundary-face term alone (it is small next to the folded tets' term): difference of
+  // the energies with and without the faces.
+  SphericalBallEnergy no_faces(E, I, B);
+  no_faces.set_fold_penalty(mu, floor);
+  Eigen::VectorXd g0;
+  no_faces.energy_and_gradient(x, g0);
+  const Eigen::VectorXd d = g - g0;
+  double derr = 0;
+  for (int i = 3 * int(I.size()); i < x.size(); ++i) {
+    Eigen::VectorXd xp = x, xm = x;
+    xp(i) += h;
+    xm(i) -= h;
+    const double fd = ((sbe.energy(xp) - no_faces.energy(xp)) - (sbe.energy(xm) - no_faces.energy(xm))) / (2 * h);
+    derr = std::max(derr, std::abs(fd - d(i)));
+  }
+  EXPECT_GT(d.cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_LT(derr, 1e-6 * std::max(1e-3, d.cwiseAbs().maxCoeff()));
 }
 
 TEST(BallParam, PoleAvoidingFrameKeepsPolesEmpty) {

@@ -51,7 +51,11 @@ class SphericalBallEnergy {
   // energy is E_I + mu * sum_tau max(0, floor * |tau| (4pi/3) / V(e) - |f(tau)|)^2 / |tau|,
   // which pushes image tets below `floor` times their volume-preserving size in the unit
   // ball (in particular inverted ones) back to a positive volume. mu = 0: plain E_I.
-  void set_fold_penalty(double mu, double floor) { mu_ = mu; floor_ = floor; }
+  void set_fold_penalty(double mu, double floor, const std::vector<int>& faces = {}) {
+    mu_ = mu;
+    floor_ = floor;
+    penalty_faces_ = faces;
+  }
   // The penalty alone at f (n×3); adds its gradient to G when G is non-null.
   double fold_penalty(const Eigen::MatrixXd& f, Eigen::MatrixXd* G) const;
 
@@ -61,6 +65,7 @@ class SphericalBallEnergy {
   int nI_ = 0, nB_ = 0;
   Eigen::Matrix3d Q_ = Eigen::Matrix3d::Identity();
   double mu_ = 0, floor_ = 0;
+  std::vector<int> penalty_faces_;  // boundary faces (rows of boundary_faces()) also penalized
   mutable Eigen::MatrixXd f_, G_;
 };
 
