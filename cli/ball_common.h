@@ -41,6 +41,9 @@ inline nlohmann::json ball_metrics_json(const BallMetrics& m) {
   j["positive_tets"] = m.positive_tets;
   j["negative_tets"] = m.negative_tets;
   j["flipped_boundary_faces"] = m.flipped_boundary_faces;
+  j["overlap_fraction"] = m.overlap_fraction;
+  j["uncovered_fraction"] = m.uncovered_fraction;
+  j["coverage_samples"] = m.coverage_samples;
   j["boundary_sphere_error"] = m.boundary_sphere_error;
   j["max_radius"] = m.max_radius;
   return j;

@@ -22,6 +22,58 @@ double percentile(const std::vector<double>& s, double q) {
 
 }  // namespace
 
+void ball_coverage(const Eigen::MatrixXd& f, const Eigen::MatrixXi& T, int samples,
+                   double& overlap_fraction, double& uncovered_fraction, int& num_samples) {
+  // Lattice spacing for ~samples points in the ball; an irrational offset keeps points off
+  // shared faces of a regular input.
+  const double h = std::cbrt(4.0 * M_PI / 3.0 / std::max(1, samples));
+  const double off[3] = {0.5 * h * (std::sqrt(2.0) - 1), 0.5 * h * (std::sqrt(3.0) - 1), 0.5 * h * (std::sqrt(5.0) - 2)};
+  std::vector<Eigen::Vector3d> pts;
+  const int K = int(std::ceil(1.0 / h)) + 1;
+  for (int i = -K; i <= K; ++i)
+    for (int j = -K; j <= K; ++j)
+      for (int k = -K; k <= K; ++k) {
+        const Eigen::Vector3d p(i * h + off[0], j * h + off[1], k * h + off[2]);
+        if (p.norm() < 1.0) pts.push_back(p);
+      }
+  // Uniform grid of image-tet bounding boxes over [-1, 1]^3 (tets outside are clipped).
+  const int G = std::max(4, int(std::cbrt(double(T.rows()) / 2.0)));
+  auto cell = [&](double x) { return std::clamp(int((x + 1.0) * 0.5 * G), 0, G - 1); };
+  std::vector<std::vector<int>> bins(size_t(G) * G * G);
+  for (Eigen::Index t = 0; t < T.rows(); ++t) {
+    Eigen::Vector3d lo = f.row(T(t, 0)).transpose(), hi = lo;
+    for (int c = 1; c < 4; ++c) {
+      lo = lo.cwiseMin(f.row(T(t, c)).transpose());
+      hi = hi.cwiseMax(f.row(T(t, c)).transpose());
+    }
+    for (int a = cell(lo.x()); a <= cell(hi.x()); ++a)
+      for (int b = cell(lo.y()); b <= cell(hi.y()); ++b)
+        for (int c = cell(lo.z()); c <= cell(hi.z()); ++c) bins[(size_t(a) * G + b) * G + c].push_back(int(t));
+  }
+  long over = 0, none = 0;
+#pragma omp parallel for schedule(static) reduction(+ : over, none)
+  for (long s = 0; s < long(pts.size()); ++s) {
+    const Eigen::Vector3d& p = pts[size_t(s)];
+    int cnt = 0;
+    for (int t : bins[(size_t(cell(p.x())) * G + cell(p.y())) * G + cell(p.z())]) {
+      const Eigen::Vector3d a = f.row(T(t, 0)), b = f.row(T(t, 1)), c = f.row(T(t, 2)), d = f.row(T(t, 3));
+      const double v = (b - a).dot((c - a).cross(d - a));
+      if (v == 0) continue;
+      // Barycentric coordinates as signed sub-volumes over the tet volume (any orientation).
+      const double l0 = (b - p).dot((c - p).cross(d - p)) / v;
+      const double l1 = (a - p).dot((d - p).cross(c - p)) / v;
+      const double l2 = (a - p).dot((b - p).cross(d - p)) / v;
+      const double l3 = (a - p).dot((c - p).cross(b - p)) / v;
+      if (l0 >= 0 && l1 >= 0 && l2 >= 0 && l3 >= 0 && ++cnt >= 2) break;
+    }
+    over += cnt >= 2;
+    none += cnt == 0;
+  }
+  num_samples = int(pts.size());
+  overlap_fraction = pts.empty() ? 0 : double(over) / double(pts.size());
+  uncovered_fraction = pts.empty() ? 0 : double(none) / double(pts.size());
+}
+
 Eigen::VectorXd ball_volume_distortion(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T,
                                        const Eigen::MatrixXd& f) {
   if (f.rows() != V.rows() || f.cols() != 3)
@@ -85,6 +137,7 @@ BallMetrics ball_metrics(const TetMesh& mesh, const Eigen::MatrixXd& f) {
       ++neg;
   }
   m.flipped_boundary_faces = std::min(pos, neg);
+  ball_coverage(f, mesh.T, 100000, m.overlap_fraction, m.uncovered_fraction, m.coverage_samples);
   for (Eigen::Index k = 0; k < b.to_volume.size(); ++k)
     m.boundary_sphere_error =
         std::max(m.boundary_sphere_error, std::abs(f.row(b.to_volume(k)).norm() - 1.0));

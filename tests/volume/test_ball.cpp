@@ -293,4 +293,24 @@ TEST(BallMetricsTest, DistortionFoldsAndSphereError) {
   const BallMetrics w = ball_metrics(m, a);
   EXPECT_GT(w.flipped_boundary_faces, 0);
   EXPECT_LE(w.flipped_boundary_faces, star);
+  // Coverage of the ball: the half-size blob is covered once, the rest of the ball not at
+  // all (uncovered share ~ 1 - blob volume / ball volume); pulling one interior vertex
+  // through its neighbours makes image tets overlap.
+  double over = 0, none = 0;
+  int ns = 0;
+  const Eigen::MatrixXd half = 0.5 * m.V;
+  ball_coverage(half, m.T, 20000, over, none, ns);
+  EXPECT_GT(ns, 15000);
+  EXPECT_EQ(over, 0.0);
+  const double blob = 0.125 * tet_volumes(m.V, m.T).sum() / (4.0 * M_PI / 3.0);
+  EXPECT_NEAR(none, 1.0 - blob, 0.02);
+  EXPECT_NEAR(s.overlap_fraction, 0.0, 0.0);
+  int inner = -1;
+  for (int i = 0; i < m.num_vertices(); ++i)
+    if (tb.to_surface(i) < 0 && (inner < 0 || m.V.row(i).norm() < m.V.row(inner).norm())) inner = i;
+  ASSERT_GE(inner, 0);
+  Eigen::MatrixXd pulled = half;
+  pulled(inner, 0) += 0.3;
+  ball_coverage(pulled, m.T, 20000, over, none, ns);
+  EXPECT_GT(over, 0.0);
 }
