@@ -48,6 +48,7 @@ Command register_ball(CLI::App& app, GlobalOptions& g) {
                        {"tolerance", a->opt.tolerance},
                        {"vsem_iterations", a->opt.vsem_iterations},
                        {"anisotropic_scaling", a->opt.anisotropic_scaling},
+                       {"boundary_barrier", a->opt.boundary_barrier},
                        {"prevent_new_folds", a->opt.prevent_new_folds}};
     j["metrics"] = ball_metrics_json(m);
     j["metrics_after_vsem"] = ball_metrics_json(mv);
@@ -62,6 +63,10 @@ Command register_ball(CLI::App& app, GlobalOptions& g) {
                 " tets; E_I " + std::to_string(r.energy_vsem) + " -> " + std::to_string(r.energy_final) +
                 ", mean D_V " + std::to_string(m.dv_mean) + ", folded " + std::to_string(m.folded_tets) +
                 " -> " + out.final_path() + "/ball.vtk");
+    // E_I alone lets the boundary layer fold over (docs/methods.md): say so when it did.
+    if (m.overlap_fraction > 1e-3)
+      info(g, "ball: note: the map covers " + std::to_string(100 * m.overlap_fraction) +
+                  "% of the ball twice (boundary layer folded over); --boundary-barrier 0.01 prevents it");
     return 0;
   };
   return c;

@@ -600,7 +600,21 @@ BallParamResult ball_parameterization(const TetMesh& mesh, const BallParamOption
       }
     }
   };
+  // Boundary-layer barrier on during CG (E, g and the stopping test see E_I + barrier);
+  // E is re-evaluated without it afterwards.
+  std::vector<int> all_faces(size_t(energy.boundary_faces().rows()));
+  std::iota(all_faces.begin(), all_faces.end(), 0);
+  auto barrier = [&](bool on) {
+    if (opt.boundary_barrier <= 0) return;
+    if (on)
+      sbe.set_fold_penalty(opt.boundary_barrier, opt.penalty_floor, all_faces);
+    else
+      sbe.set_fold_penalty(0, 0);
+    E = objective(x, g);
+  };
+  barrier(true);
   cg_loop(opt.max_iterations, opt.prevent_new_folds);
+  barrier(false);
 
   res.seconds_cg = since(t_cg);
   res.cpu_seconds_cg = double(std::clock() - c_cg) / CLOCKS_PER_SEC;
@@ -686,7 +700,9 @@ BallParamResult ball_parameterization(const TetMesh& mesh, const BallParamOption
     if (now < defects_cg && opt.polish_iterations > 0) {
       x = sbe.from_map(f);
       E = objective(x, g);
+      barrier(true);
       cg_loop(opt.polish_iterations, true);
+      barrier(false);
       sbe.to_map(x, fu);
       if (defects(fu) <= now) f.swap(fu);
     }
