@@ -87,16 +87,16 @@ inline nlohmann::json ball_result_json(const BallParamResult& r) {
 
 inline void add_ball_options(CLI::App* app, BallParamOptions& o) {
   app->add_option("--max-iterations", o.max_iterations, "MaxIter of the nonlinear CG (paper: 500)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(non_negative());
   app->add_option("--tolerance", o.tolerance, "Stop when E_old - E_new < tol (paper: 1e-6)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(non_negative());
   app->add_option("--vsem-iterations", o.vsem_iterations, "VSEM fixed-point updates (paper: 15)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(non_negative());
   app->add_flag("!--no-ast", o.anisotropic_scaling, "Skip the anisotropic scaling (Eq. 11)");
   app->add_option("--boundary-barrier", o.boundary_barrier,
                   "Weight of the boundary-layer barrier added to E_I during CG (0: the paper's "
                   "plain E_I; see docs/methods.md)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(non_negative());
   app->add_flag("--prevent-new-folds", o.prevent_new_folds,
                 "Halve CG steps that would increase the number of inverted tets");
 }

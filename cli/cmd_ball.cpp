@@ -20,7 +20,7 @@ Command register_ball(CLI::App& app, GlobalOptions& g) {
       ->required();
   c.app->add_option("-o,--output", a->out, "Output folder")->required();
   c.app->add_option("--tets", a->tets, "Approximate tet count when A is a surface (0: default)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(non_negative());
   add_ball_options(c.app, a->opt);
   c.run = [a, &g] {
     StageTimer timer;

@@ -37,9 +37,9 @@ Command register_register(CLI::App& app, GlobalOptions& g) {
   c.app->add_option("--via", a->via, "Registration method (ball: Sec. 7 of the isovolumetric paper)")
       ->check(CLI::IsMember({"ball"}));
   c.app->add_option("--frames", a->frames, "Write K >= 2 linear-homotopy frames H(v, t) (Eq. 46)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(non_negative());
   c.app->add_option("--tets", a->tets, "Approximate tet count for surface inputs (0: default)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(non_negative());
   add_ball_options(c.app, a->opt.ball);
   c.run = [a, &g] {
     if (a->frames == 1) throw InputError("--frames: need 0 or at least 2 frames");

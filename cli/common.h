@@ -13,6 +13,23 @@
 
 namespace shapemap::cli {
 
+// ">= 0" check for numeric options with a short message (CLI11's NonNegativeNumber prints
+// the whole double range).
+inline CLI::Validator non_negative() {
+  return CLI::Validator(
+      [](std::string& v) -> std::string {
+        try {
+          size_t used = 0;
+          const double x = std::stod(v, &used);
+          if (used != v.size()) return "not a number: " + v;
+          return x >= 0 ? std::string() : "must be >= 0, got " + v;
+        } catch (const std::exception&) {
+          return "not a number: " + v;
+        }
+      },
+      "NONNEGATIVE");
+}
+
 struct GlobalOptions {
   bool quiet = false;
   int threads = 0;          // 0 = all cores

@@ -92,7 +92,7 @@ Command register_evaluate_surface(CLI::App& evaluate, GlobalOptions& g) {
   auto* lm = c.app->add_option("--landmarks", a->landmarks, "LA LB: corresponding vertex lists")->expected(2);
   truth->excludes(lm);
   c.app->add_option("--max-points", a->max_points, "Dense truth: evaluate at most this many vertices (0 = all)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(non_negative());
   c.app->add_option("--map-ba", a->map_ba,
                     "The reverse map B -> A (map_BA.txt): reversibility |PQX - X| and its metrics");
   c.app->add_flag("--per-face", a->per_face, "Also write per-triangle conformal and area distortion");

@@ -10,7 +10,7 @@ int run(const std::vector<std::string>& args) {
   app.require_subcommand(1);
   GlobalOptions g;
   app.add_flag("-q,--quiet", g.quiet, "No progress or messages on stderr");
-  app.add_option("--threads", g.threads, "Worker threads (0 = all cores)")->check(CLI::NonNegativeNumber);
+  app.add_option("--threads", g.threads, "Worker threads (0 = all cores)")->check(non_negative());
   app.add_option("--seed", g.seed, "Random seed: the same input and seed give the same output");
   app.set_version_flag("--version", "shapemap 0.1.0");
 

@@ -26,11 +26,11 @@ void add_elastic_options(CLI::App* app, ElasticCliOptions& o) {
                   "near-isometric (0.01), degenerate (0.002, for degenerate initial maps)")
       ->check(CLI::IsMember({"non-isometric", "near-isometric", "degenerate"}));
   app->add_option("--elastic-eta", o.eta, "elastic: bending weight eta (Eq. 2), overrides the preset")
-      ->check(CLI::NonNegativeNumber);
+      ->check(non_negative());
   app->add_option("--elastic-alpha", o.alpha, "elastic: membrane weight alpha (Eq. 2)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(non_negative());
   app->add_option("--elastic-iterations", o.iterations, "elastic: outer iterations K (Algorithm 1)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(non_negative());
   app->add_flag("--elastic-injective", o.injective,
                 "elastic: locally injective model E_inj (Eq. 4) instead of E_bij (Eq. 6)");
   app->add_flag("--elastic-partial", o.partial,
