@@ -625,38 +625,28 @@ BallParamResult ball_parameterization(const TetMesh& mesh, const BallParamOption
   res.inverted_cg = sbe.inverted_tets(x);
   res.energy_cg = E;
   // Post-step (docs/methods.md): (1) local untangling of the remaining folded tets;
-  // (2) if folds remain, CG on E_I + fold penalty with the weight raised tenfold per round
-  // until none is left; (3) CG polishing of E_I alone in which no step may increase the
-  // number of folded tets. Each stage is kept only if it lowers the fold count.
+  // (2) if folds remain, L-BFGS on E_I + fold penalty (tets, and boundary faces next to the
+  // folds) with the weight raised tenfold per round until none is left; (3) CG polishing
+  // (with the boundary barrier if on) in which no step may increase the number of folded
+  // tets. Each stage is kept only if it lowers the fold count.
   auto count_folds = [&](const Eigen::MatrixXd& fm) {
     Eigen::VectorXd vol;
     energy.image_volumes(fm, vol);
     return int((vol.array() <= 0).count());
   };
-  // Boundary faces whose image triangle is negatively oriented as seen from the origin
-  // (reported, not repaired: the post-step works on tet volumes). With every tet positive
-  // these are long thin boundary triangles whose plane passes near the centre: the image
-  // boundary is then an inscribed but non-convex polyhedron.
+  // Boundary faces whose image triangle is negatively oriented seen from the origin
+  // (reported, not repaired here; see boundary_barrier and docs/methods.md).
   const Eigen::MatrixXi& Fo = energy.boundary_faces();
-  auto count_flipped = [&](const Eigen::MatrixXd& fm) {
-    int k = 0;
-    for (Eigen::Index q = 0; q < Fo.rows(); ++q)
-      k += !(Eigen::Vector3d(fm.row(Fo(q, 0))).dot(
-                 Eigen::Vector3d(fm.row(Fo(q, 1))).cross(Eigen::Vector3d(fm.row(Fo(q, 2))))) > 0);
-    return k;
-  };
-  const auto& defects = count_folds;
-  res.flipped_boundary_faces_cg = count_flipped(f);
-  const int defects_cg = res.inverted_cg;
-  if (defects_cg > 0 && (opt.untangle_rounds > 0 || opt.penalty_rounds > 0)) {
+  res.flipped_boundary_faces_cg = spherical_folded_faces(f, Fo);
+  if (res.inverted_cg > 0 && (opt.untangle_rounds > 0 || opt.penalty_rounds > 0)) {
     const auto t_post = Clock::now();
     const bool converged = res.converged;
     const int it0 = res.iterations;
-    int now = defects_cg;
+    int now = res.inverted_cg;
     Eigen::MatrixXd fu = f;
     if (opt.untangle_rounds > 0 && res.inverted_cg > 0) {
       untangle_interior(Tp, nI, opt.untangle_rounds, fu);
-      const int k = defects(fu);
+      const int k = count_folds(fu);
       if (k < now) {
         f = fu;
         now = k;
@@ -688,7 +678,7 @@ BallParamResult ball_parameterization(const TetMesh& mesh, const BallParamOption
         const LbfgsResult lr = lbfgs_minimize(objective, x, lo);
         res.iterations += lr.iterations;
         sbe.to_map(x, fu);
-        k = defects(fu);
+        k = count_folds(fu);
         ++res.penalty_rounds;
       }
       sbe.set_fold_penalty(0, 0);
@@ -697,14 +687,14 @@ BallParamResult ball_parameterization(const TetMesh& mesh, const BallParamOption
         now = k;
       }
     }
-    if (now < defects_cg && opt.polish_iterations > 0) {
+    if (now < res.inverted_cg && opt.polish_iterations > 0) {
       x = sbe.from_map(f);
       E = objective(x, g);
       barrier(true);
       cg_loop(opt.polish_iterations, true);
       barrier(false);
       sbe.to_map(x, fu);
-      if (defects(fu) <= now) f.swap(fu);
+      if (count_folds(fu) <= now) f.swap(fu);
     }
     res.polish_iterations = res.iterations - it0;
     res.converged = converged;
@@ -713,7 +703,7 @@ BallParamResult ball_parameterization(const TetMesh& mesh, const BallParamOption
     res.seconds_cg_eval = eval_cg;
     res.seconds_cg_solve = solve_cg;
   }
-  res.flipped_boundary_faces_final = count_flipped(f);
+  res.flipped_boundary_faces_final = spherical_folded_faces(f, Fo);
   res.inverted_final = count_folds(f);
   res.energy_final = E;
   res.f.resize(n, 3);

@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 #include <cmath>
+#include <functional>
 #include <numeric>
 #include <random>
 
@@ -26,18 +27,50 @@ void split(const TetMesh& m, Eigen::VectorXi& interior, Eigen::VectorXi& boundar
   interior = Eigen::Map<Eigen::VectorXi>(I.data(), Eigen::Index(I.size()));
 }
 
+// A small blob, its E_I, the interior/boundary split and a map f with the boundary on the
+// unit sphere (interior rows left at the input positions).
+struct SphericalSetup {
+  TetMesh m;
+  IsovolumetricEnergy E;
+  Eigen::VectorXi I, B;
+  Eigen::MatrixXd f;
+};
+SphericalSetup spherical_setup() {
+  SphericalSetup s;
+  s.m = blob_tets(3, Eigen::Vector3d(1.0, 0.8, 0.7), 0.1);
+  s.E.build(s.m.V, s.m.T);
+  split(s.m, s.I, s.B);
+  s.f = s.m.V;
+  for (int k = 0; k < s.B.size(); ++k) s.f.row(s.B(k)).normalize();
+  return s;
+}
+
+// Max over variables i >= begin of |central difference of fun - g(i)| (step 1e-6); also
+// returns max |g(i)| over them in gmax.
+double max_fd_error(const std::function<double(const Eigen::VectorXd&)>& fun, const Eigen::VectorXd& x,
+                    const Eigen::VectorXd& g, int begin, double& gmax) {
+  const double h = 1e-6;
+  double err = 0;
+  gmax = 0;
+  for (int i = begin; i < x.size(); ++i) {
+    Eigen::VectorXd xp = x, xm = x;
+    xp(i) += h;
+    xm(i) -= h;
+    err = std::max(err, std::abs((fun(xp) - fun(xm)) / (2 * h) - g(i)));
+    gmax = std::max(gmax, std::abs(g(i)));
+  }
+  return err;
+}
+
 }  // namespace
 
 TEST(BallParam, SphericalGradientMatchesFiniteDifferences) {
-  const TetMesh m = blob_tets(3, Eigen::Vector3d(1.0, 0.8, 0.7), 0.1);
-  const IsovolumetricEnergy E(m.V, m.T);
-  Eigen::VectorXi I, B;
-  split(m, I, B);
+  SphericalSetup S = spherical_setup();
+  const Eigen::VectorXi &I = S.I, &B = S.B;
   ASSERT_GT(I.size(), 0);
-  SphericalBallEnergy sbe(E, I, B);
+  SphericalBallEnergy sbe(S.E, I, B);
   // A point with the boundary on the sphere and a perturbed interior.
-  Eigen::MatrixXd f = m.V;
-  for (int k = 0; k < B.size(); ++k) f.row(B(k)).normalize();
+  Eigen::MatrixXd& f = S.f;
   for (int k = 0; k < I.size(); ++k) f.row(I(k)) *= 0.8;
   std::mt19937 rng(7);
   std::normal_distribution<double> N(0.0, 1.0);
@@ -51,17 +84,9 @@ TEST(BallParam, SphericalGradientMatchesFiniteDifferences) {
     Eigen::VectorXd g;
     const double e0 = sbe.energy_and_gradient(x, g);
     EXPECT_NEAR(e0, sbe.energy(x), 1e-14);
-    const double h = 1e-6;
-    double err = 0, gmax = 0;
     // Every variable: f_I blocks, theta and phi (Eqs. 10a-10c).
-    for (int i = 0; i < x.size(); ++i) {
-      Eigen::VectorXd xp = x, xm = x;
-      xp(i) += h;
-      xm(i) -= h;
-      const double fd = (sbe.energy(xp) - sbe.energy(xm)) / (2 * h);
-      err = std::max(err, std::abs(fd - g(i)));
-      gmax = std::max(gmax, std::abs(g(i)));
-    }
+    double gmax = 0;
+    const double err = max_fd_error([&](const Eigen::VectorXd& y) { return sbe.energy(y); }, x, g, 0, gmax);
     EXPECT_LT(err, 1e-7 * std::max(1.0, gmax)) << "frame " << frame;
     // Round trip x -> f -> x keeps the map (angles may differ by 2 pi).
     Eigen::MatrixXd f1, f2;
@@ -75,14 +100,12 @@ TEST(BallParam, SphericalGradientMatchesFiniteDifferences) {
 // inverted and thin tets: value against a brute-force sum, gradient against central
 // differences in every variable.
 TEST(BallParam, FoldPenaltyGradientMatchesFiniteDifferences) {
-  const TetMesh m = blob_tets(3, Eigen::Vector3d(1.0, 0.8, 0.7), 0.1);
-  const IsovolumetricEnergy E(m.V, m.T);
-  Eigen::VectorXi I, B;
-  split(m, I, B);
+  SphericalSetup S = spherical_setup();
+  const IsovolumetricEnergy& E = S.E;
+  const Eigen::VectorXi &I = S.I, &B = S.B;
   ASSERT_GT(I.size(), 0);
   SphericalBallEnergy sbe(E, I, B);
-  Eigen::MatrixXd f = m.V;
-  for (int k = 0; k < B.size(); ++k) f.row(B(k)).normalize();
+  Eigen::MatrixXd& f = S.f;
   std::mt19937 rng(11);
   std::normal_distribution<double> N(0.0, 1.0);
   for (int k = 0; k < I.size(); ++k) f.row(I(k)) = 0.8 * f.row(I(k)) + 0.25 * Eigen::RowVector3d(N(rng), N(rng), N(rng));
@@ -131,16 +154,8 @@ TEST(BallParam, FoldPenaltyGradientMatchesFiniteDifferences) {
   Eigen::VectorXd g;
   const double e0 = sbe.energy_and_gradient(x, g);
   EXPECT_NEAR(e0, sbe.energy(x), 1e-12 * std::max(1.0, e0));
-  const double h = 1e-6;
-  double err = 0, gmax = 0;
-  for (int i = 0; i < x.size(); ++i) {
-    Eigen::VectorXd xp = x, xm = x;
-    xp(i) += h;
-    xm(i) -= h;
-    const double fd = (sbe.energy(xp) - sbe.energy(xm)) / (2 * h);
-    err = std::max(err, std::abs(fd - g(i)));
-    gmax = std::max(gmax, std::abs(g(i)));
-  }
+  double gmax = 0;
+  const double err = max_fd_error([&](const Eigen::VectorXd& y) { return sbe.energy(y); }, x, g, 0, gmax);
   EXPECT_LT(err, 1e-6 * std::max(1.0, gmax));
   // The boundary-face term alone (it is small next to the folded tets' term): difference of
   // the energies with and without the faces.
@@ -149,14 +164,9 @@ TEST(BallParam, FoldPenaltyGradientMatchesFiniteDifferences) {
   Eigen::VectorXd g0;
   no_faces.energy_and_gradient(x, g0);
   const Eigen::VectorXd d = g - g0;
-  double derr = 0;
-  for (int i = 3 * int(I.size()); i < x.size(); ++i) {
-    Eigen::VectorXd xp = x, xm = x;
-    xp(i) += h;
-    xm(i) -= h;
-    const double fd = ((sbe.energy(xp) - no_faces.energy(xp)) - (sbe.energy(xm) - no_faces.energy(xm))) / (2 * h);
-    derr = std::max(derr, std::abs(fd - d(i)));
-  }
+  double dmax = 0;
+  const double derr = max_fd_error([&](const Eigen::VectorXd& y) { return sbe.energy(y) - no_faces.energy(y); },
+                                   x, d, 3 * int(I.size()), dmax);
   EXPECT_GT(d.cwiseAbs().maxCoeff(), 0.0);
   EXPECT_LT(derr, 1e-6 * std::max(1e-3, d.cwiseAbs().maxCoeff()));
 }
