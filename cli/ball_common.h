@@ -3,30 +3,60 @@
 // the ball-map metrics.
 #pragma once
 #include "common.h"
+#include "shapemap/boundary_chords.h"
 #include "shapemap/checks.h"
 #include "shapemap/error.h"
 #include "shapemap/eval/ball_metrics.h"
 #include "shapemap/io.h"
 #include "shapemap/volume/ball_param.h"
 #include "shapemap/volume/tetrahedralize.h"
+#include <iostream>
 #include <string>
 
 namespace shapemap::cli {
 
-// A tet mesh from `path`: read directly (.vtk .mesh .msh .node .ele), or a closed genus-0
-// surface (.obj .off .ply .stl) tetrahedralized with about `tets` tets (0: default).
-inline TetMesh load_volume_or_surface(const std::string& path, int tets, bool* tetrahedralized,
-                                      const ProgressCallback& progress) {
-  if (tetrahedralized) *tetrahedralized = false;
-  if (is_volume_path(path)) return read_volume(path);
-  if (!is_surface_path(path))
+// The volume of `ball` / `register`: read from `path` (.vtk .mesh .msh .node .ele), or a
+// closed genus-0 surface (.obj .off .ply .stl) tetrahedralized with about `tets` tets (0:
+// default). Boundary chords (shapemap/boundary_chords.h) are split in meshes we make and,
+// with split_chords, in given ones; a given mesh with chords left gets a note.
+struct BallInput {
+  TetMesh mesh;
+  bool tetrahedralized = false;
+  int chords_split = 0;
+  int chords_left = 0;
+  bool changed() const { return tetrahedralized || chords_split > 0; }  // write it to OUT
+};
+
+inline BallInput load_ball_input(const std::string& path, int tets, bool split_chords,
+                                 const ProgressCallback& progress, bool quiet) {
+  BallInput in;
+  if (is_volume_path(path)) {
+    in.mesh = read_volume(path);
+  } else if (is_surface_path(path)) {
+    TriMesh s = read_surface(path);
+    require_genus0_surface(s, path);
+    TetrahedralizeOptions o;
+    o.target_tets = tets;
+    in.mesh = tetrahedralize_input(s, o, progress, path, quiet);
+    in.tetrahedralized = true;
+    split_chords = true;
+  } else {
     throw InputError(path + ": unknown mesh format (use .vtk .mesh .msh .node .ele, or a closed surface .obj .off .ply .stl)");
-  TriMesh s = read_surface(path);
-  require_genus0_surface(s, path);
-  TetrahedralizeOptions o;
-  o.target_tets = tets;
-  if (tetrahedralized) *tetrahedralized = true;
-  return tetrahedralize(s, o, progress);
+  }
+  // The checks of ball_parameterization(), before the chords are looked at.
+  require_valid_volume(in.mesh, path, 0.0);
+  require_ball_topology(in.mesh, path);
+  if (split_chords) {
+    in.chords_split = split_boundary_chords(in.mesh);
+  } else {
+    in.chords_left = int(boundary_chords(in.mesh).size());
+    if (in.chords_left > 0 && !quiet)
+      std::cerr << path << ": note: " << in.chords_left << " interior edges join two boundary vertices ("
+                << boundary_only_tets(in.mesh)
+                << " tets have all four vertices on the boundary); the ball map squeezes them flat. "
+                   "--split-chords splits them (docs/methods.md)\n";
+  }
+  return in;
 }
 
 inline nlohmann::json ball_metrics_json(const BallMetrics& m) {

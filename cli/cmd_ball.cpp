@@ -13,6 +13,7 @@ Command register_ball(CLI::App& app, GlobalOptions& g) {
   struct Args {
     std::string A, out;
     int tets = 0;
+    bool split_chords = false;
     BallParamOptions opt;
   };
   auto a = std::make_shared<Args>();
@@ -21,14 +22,17 @@ Command register_ball(CLI::App& app, GlobalOptions& g) {
   c.app->add_option("-o,--output", a->out, "Output folder")->required();
   c.app->add_option("--tets", a->tets, "Approximate tet count when A is a surface (0: default)")
       ->check(non_negative());
+  c.app->add_flag("--split-chords", a->split_chords,
+                   "Split interior edges that join two boundary vertices (always done for surface inputs); "
+                   "ball.vtk is then on the refined mesh, written as OUT/input.vtk");
   add_ball_options(c.app, a->opt);
   c.run = [a, &g] {
     StageTimer timer;
     auto progress = make_progress(g);
     OutputDir out(a->out);
     timer.start("read");
-    bool tetrahedralized = false;
-    const TetMesh mesh = load_volume_or_surface(a->A, a->tets, &tetrahedralized, progress);
+    const BallInput in = load_ball_input(a->A, a->tets, a->split_chords, progress, g.quiet);
+    const TetMesh& mesh = in.mesh;
     timer.start("ball");
     const BallParamResult r = ball_parameterization(mesh, a->opt, progress, a->A);
     timer.start("metrics");
@@ -39,11 +43,12 @@ Command register_ball(CLI::App& app, GlobalOptions& g) {
     ball.V = r.f;
     ball.T = mesh.T;
     write_vtk(out.path("ball.vtk"), ball, {}, {{"D_V", ball_volume_distortion(mesh.V, mesh.T, r.f)}});
-    if (tetrahedralized) write_volume(out.path("input.vtk"), mesh);
+    if (in.changed()) write_volume(out.path("input.vtk"), mesh);
     timer.stop();
     nlohmann::json j = report_header(g, "ball");
     j["input"] = a->A;
-    j["tetrahedralized"] = tetrahedralized;
+    j["tetrahedralized"] = in.tetrahedralized;
+    j["boundary_chords"] = {{"split", in.chords_split}, {"left", in.chords_left}};
     j["parameters"] = {{"max_iterations", a->opt.max_iterations},
                        {"tolerance", a->opt.tolerance},
                        {"vsem_iterations", a->opt.vsem_iterations},

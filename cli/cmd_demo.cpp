@@ -86,7 +86,7 @@ int run_demo(const DemoArgs& a, const GlobalOptions& g) {
        {"evaluate", "volume", P + "/A.vtk", P + "/B.vtk", D + "/volume/map_AB.txt", "--map-ba",
         D + "/volume/map_BA.txt", "--truth", P + "/truth_vol_AB.txt", "-o", D + "/volume/evaluation.json"}},
       {"ball", "ball", "isovolumetric ball parameterization of A",
-       {"ball", P + "/A.vtk", "-o", D + "/ball"}},
+       {"ball", P + "/A.vtk", "-o", D + "/ball", "--split-chords"}},
       {"register", "register", "registration A->B through the ball",
        {"register", P + "/A.vtk", P + "/B.vtk", "-o", D + "/register", "--via", "ball"}},
       {"register eval", "register", "registration A->B vs the ground-truth deformation",

@@ -28,6 +28,7 @@ Command register_register(CLI::App& app, GlobalOptions& g) {
   struct Args {
     std::string A, B, out, via = "ball";
     int tets = 0, frames = 0;
+    bool split_chords = false;
     RegisterOptions opt;
   };
   auto a = std::make_shared<Args>();
@@ -40,6 +41,9 @@ Command register_register(CLI::App& app, GlobalOptions& g) {
       ->check(non_negative());
   c.app->add_option("--tets", a->tets, "Approximate tet count for surface inputs (0: default)")
       ->check(non_negative());
+  c.app->add_flag("--split-chords", a->split_chords,
+                   "Split interior edges that join two boundary vertices (always done for surface inputs); "
+                   "the outputs are then on the refined meshes, written as OUT/A.vtk, OUT/B.vtk");
   add_ball_options(c.app, a->opt.ball);
   c.run = [a, &g] {
     if (a->frames == 1) throw InputError("--frames: need 0 or at least 2 frames");
@@ -47,9 +51,9 @@ Command register_register(CLI::App& app, GlobalOptions& g) {
     auto progress = make_progress(g);
     OutputDir out(a->out);
     timer.start("read");
-    bool ta = false, tb = false;
-    const TetMesh A = load_volume_or_surface(a->A, a->tets, &ta, progress);
-    const TetMesh B = load_volume_or_surface(a->B, a->tets, &tb, progress);
+    const BallInput inA = load_ball_input(a->A, a->tets, a->split_chords, progress, g.quiet);
+    const BallInput inB = load_ball_input(a->B, a->tets, a->split_chords, progress, g.quiet);
+    const TetMesh &A = inA.mesh, &B = inB.mesh;
     timer.start("register");
     a->opt.frames = a->frames;
     const RegisterResult r = register_through_ball(A, B, a->opt, progress, a->A, a->B);
@@ -62,8 +66,8 @@ Command register_register(CLI::App& app, GlobalOptions& g) {
     AonB.V = r.A_on_B;
     AonB.T = A.T;
     write_volume(out.path("A_on_B.vtk"), AonB);
-    if (ta) write_volume(out.path("A.vtk"), A);
-    if (tb) write_volume(out.path("B.vtk"), B);
+    if (inA.changed()) write_volume(out.path("A.vtk"), A);
+    if (inB.changed()) write_volume(out.path("B.vtk"), B);
     for (size_t k = 0; k < r.frames.size(); ++k) {
       char name[64];
       std::snprintf(name, sizeof(name), "frames/frame_%03zu.vtk", k);
@@ -75,7 +79,9 @@ Command register_register(CLI::App& app, GlobalOptions& g) {
     timer.stop();
     nlohmann::json j = report_header(g, "register");
     j["inputs"] = {{"A", a->A}, {"B", a->B}, {"via", a->via}};
-    j["tetrahedralized"] = {{"A", ta}, {"B", tb}};
+    j["tetrahedralized"] = {{"A", inA.tetrahedralized}, {"B", inB.tetrahedralized}};
+    j["boundary_chords"] = {{"A", {{"split", inA.chords_split}, {"left", inA.chords_left}}},
+                            {"B", {{"split", inB.chords_split}, {"left", inB.chords_left}}}};
     j["ball_A"] = {{"metrics", ball_metrics_json(mA)}, {"optimization", ball_result_json(r.ball_A)}};
     j["ball_B"] = {{"metrics", ball_metrics_json(mB)}, {"optimization", ball_result_json(r.ball_B)}};
     j["g_A"] = matrix_json(r.g_A);

@@ -1,10 +1,11 @@
 // shapemap tetrahedralize IN -o OUT [--edge-length L | --tets N] [--no-optimize]
-//                                   [--no-features] [--radius-edge R]
+//                                   [--no-features] [--radius-edge R] [--split-chords]
 // Tetrahedralizes a closed surface (.obj .off .ply .stl) with CGAL Mesh_3 and writes
 // the tet mesh in the format named by OUT's extension (.vtk .mesh .msh .node/.ele),
 // atomically. Prints tets / vertices / time on stdout unless --quiet. Exit 2 on bad
 // input (one line naming the file and the problem).
 #include "common.h"
+#include "shapemap/boundary_chords.h"
 #include "shapemap/error.h"
 #include "shapemap/io.h"
 #include "shapemap/volume/tetrahedralize.h"
@@ -21,7 +22,7 @@ struct TetArgs {
   std::string input, output;
   double edge_length = 0;
   int tets = 0;
-  bool no_optimize = false, no_features = false;
+  bool no_optimize = false, no_features = false, split_chords = false;
   double radius_edge = 3.0;
 };
 
@@ -47,10 +48,11 @@ int run_tetrahedralize(const TetArgs& a, const GlobalOptions& g) {
   auto t0 = std::chrono::steady_clock::now();
   TetMesh mesh;
   try {
-    mesh = tetrahedralize(surface, opt, make_progress(g));
+    mesh = tetrahedralize_input(surface, opt, make_progress(g), a.input, g.quiet);
   } catch (const InputError& e) {
     throw InputError(with_path(e.what(), a.input));
   }
+  if (a.split_chords) split_boundary_chords(mesh);
   double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   write_volume(a.output, mesh);
   if (!g.quiet) {
@@ -77,6 +79,8 @@ Command register_tetrahedralize(CLI::App& app, GlobalOptions& g) {
   el->excludes(nt);
   c.app->add_flag("--no-optimize", a->no_optimize, "Skip sliver perturbation and exudation");
   c.app->add_flag("--no-features", a->no_features, "Do not protect sharp creases of the input");
+  c.app->add_flag("--split-chords", a->split_chords,
+                  "Split interior edges that join two boundary vertices (for ball maps; docs/methods.md)");
   c.app->add_option("--radius-edge", a->radius_edge, "Mesh_3 cell radius-edge ratio bound (default 3)")
       ->check(CLI::Range(2.0, 10.0));
   c.run = [a, &g] { return run_tetrahedralize(*a, g); };

@@ -45,7 +45,7 @@ VolumeInput load_volume_input(const std::string& path, const std::string& name, 
     TetrahedralizeOptions to;
     to.target_tets = tets;
     to.seed = unsigned(g.seed);
-    in.mesh = tetrahedralize(in.surface, to, progress);
+    in.mesh = tetrahedralize_input(in.surface, to, progress, path, g.quiet);
     in.from_surface = true;
   } else {
     throw InputError(path + ": unknown extension (tet mesh: .mesh .vtk .msh .node .ele; "

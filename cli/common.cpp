@@ -40,6 +40,16 @@ void info(const GlobalOptions& g, const std::string& msg) {
   if (!g.quiet) std::cerr << msg << "\n";
 }
 
+TetMesh tetrahedralize_input(const TriMesh& surface, const TetrahedralizeOptions& opt,
+                             const ProgressCallback& progress, const std::string& path, bool quiet) {
+  TetrahedralizeInfo ti;
+  TetMesh m = tetrahedralize(surface, opt, progress, &ti);
+  if (!ti.creases_dropped.empty() && !quiet)
+    std::cerr << path << ": note: sharp creases not protected (CGAL's crease protection failed: "
+              << ti.creases_dropped << "); meshed without them\n";
+  return m;
+}
+
 OutputDir::OutputDir(const std::string& final_path) : final_(final_path) {
   if (final_.empty()) throw InputError("output folder: empty path (use -o OUT)");
   fs::path p(final_);

@@ -2,6 +2,7 @@
 // output folders, report.json, and error handling.
 #pragma once
 #include "shapemap/progress.h"
+#include "shapemap/volume/tetrahedralize.h"
 #include "shapemap/render/image.h"
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
@@ -43,6 +44,11 @@ void apply_threads(const GlobalOptions& g);
 ProgressCallback make_progress(const GlobalOptions& g);
 // A one-line message on stderr unless --quiet.
 void info(const GlobalOptions& g, const std::string& msg);
+
+// tetrahedralize() of the surface read from `path`; prints a note (unless quiet) when CGAL's
+// crease protection failed and the surface was meshed without it.
+TetMesh tetrahedralize_input(const TriMesh& surface, const TetrahedralizeOptions& opt,
+                             const ProgressCallback& progress, const std::string& path, bool quiet);
 
 // A folder written under a temporary name and moved into place by commit(); if the
 // object dies without commit() (an exception), the temporary folder is removed, so a

@@ -18,6 +18,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <unordered_map>
 
 namespace shapemap {
@@ -87,7 +88,8 @@ Eigen::Vector3d to_eigen(const Point& p) { return {p.x(), p.y(), p.z()}; }
 }  // namespace
 
 TetMesh tetrahedralize(const TriMesh& surface_in, const TetrahedralizeOptions& opt,
-                       const ProgressCallback& progress) {
+                       const ProgressCallback& progress, TetrahedralizeInfo* info) {
+  if (info) *info = TetrahedralizeInfo{};
   const std::string name = "surface";
   cgal_internal::require_closed_manifold(surface_in, name);
   if (opt.edge_length < 0) throw InputError("tetrahedralize: edge length must be positive");
@@ -117,10 +119,6 @@ TetMesh tetrahedralize(const TriMesh& surface_in, const TetrahedralizeOptions& o
   report(progress, "tetrahedralize/setup", 0);
   CGAL::get_default_random() = CGAL::Random(opt.seed);
   SurfaceMesh sm = to_surface_mesh(surface, name);
-  CGAL::Random rng(opt.seed);
-  Domain domain(sm, &rng);
-  if (opt.faithful_boundary) domain.detect_features(60);  // protect creases sharper than 120 deg dihedral
-  const bool has_features = opt.faithful_boundary && domain.maximal_curve_index() != Domain::Curve_index();
 
   // Criteria (CGAL Mesh_3 user manual, section 2.3): circumradius bounds derived from L:
   // a regular tet of edge L has circumradius 0.61 L, an equilateral triangle 0.58 L.
@@ -142,13 +140,30 @@ TetMesh tetrahedralize(const TriMesh& surface_in, const TetrahedralizeOptions& o
                                   : P::no_exude();
   const auto odt = opt.odt ? P::odt(P::time_limit = tl, P::max_iteration_number = 10) : P::no_odt();
   report(progress, "tetrahedralize/refine", 0);
-  if (has_features) {
-    c3t3 = CGAL::make_mesh_3<C3t3>(domain, criteria, P::features(domain), perturb, exude,
-                                   odt, P::no_lloyd(), P::manifold());
-  } else {
+  CGAL::Random rng(opt.seed);
+  auto domain = std::make_unique<Domain>(sm, &rng);
+  if (opt.faithful_boundary) domain->detect_features(60);  // protect creases sharper than 120 deg dihedral
+  bool meshed = false;
+  if (opt.faithful_boundary && domain->maximal_curve_index() != Domain::Curve_index()) {
+    // CGAL's checks are on in this library (CMakeLists.txt): a failure of the crease
+    // protection is an exception, and the surface is meshed again without it.
+    try {
+      c3t3 = CGAL::make_mesh_3<C3t3>(*domain, criteria, P::features(*domain), perturb, exude, odt,
+                                     P::no_lloyd(), P::manifold());
+      meshed = true;
+      if (info) info->creases_protected = true;
+    } catch (const CGAL::Failure_exception& e) {
+      if (info) info->creases_dropped = e.expression() + " (" + e.filename() + ")";
+      c3t3 = C3t3();
+      CGAL::get_default_random() = CGAL::Random(opt.seed);
+      rng = CGAL::Random(opt.seed);
+      domain = std::make_unique<Domain>(sm, &rng);
+    }
+  }
+  if (!meshed) {
     int npts = int(std::clamp(area / (L * L) / 8, 20.0, 400.0));
-    insert_initial_points(c3t3, domain, surface, npts, 1.5 * L);
-    CGAL::refine_mesh_3(c3t3, domain, criteria, perturb, exude, odt, P::no_lloyd(),
+    insert_initial_points(c3t3, *domain, surface, npts, 1.5 * L);
+    CGAL::refine_mesh_3(c3t3, *domain, criteria, perturb, exude, odt, P::no_lloyd(),
                         P::no_reset_c3t3(), P::manifold());
   }
   report(progress, "tetrahedralize/refine", 1);

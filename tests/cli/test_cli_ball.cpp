@@ -86,3 +86,37 @@ TEST(CliBall, BallRegisterEvaluateAndBadInput) {
   EXPECT_EQ(std::count(msg.begin(), msg.end(), '\n'), 1) << msg;
   EXPECT_FALSE(fs::exists(bad));
 }
+
+TEST(CliBall, SplitChordsRefinesTheInputAndSaysSo) {
+  TempDir tmp;
+  const fs::path A = tmp.path / "a.vtk", err = tmp.path / "err.txt";
+  const TetMesh a = testing_ball::blob_tets(4, Eigen::Vector3d(1, 0.7, 0.5), 0.1);
+  write_volume(A.string(), a);
+  const fs::path plain = tmp.path / "plain", split = tmp.path / "split";
+  ASSERT_EQ(run("ball " + A.string() + " -o " + plain.string() + " --max-iterations 20", err), 0) << slurp(err);
+  const nlohmann::json jp = nlohmann::json::parse(slurp(plain / "report.json"));
+  const int left = jp["boundary_chords"]["left"].get<int>();
+  EXPECT_GT(left, 0);  // Kuhn corner cubes: diagonals between two boundary vertices
+  EXPECT_EQ(jp["boundary_chords"]["split"].get<int>(), 0);
+  EXPECT_FALSE(fs::exists(plain / "input.vtk"));  // given mesh, unchanged: not copied
+
+  ASSERT_EQ(run("ball " + A.string() + " -o " + split.string() + " --max-iterations 20 --split-chords", err), 0)
+      << slurp(err);
+  const nlohmann::json js = nlohmann::json::parse(slurp(split / "report.json"));
+  EXPECT_EQ(js["boundary_chords"]["split"].get<int>(), left);
+  EXPECT_EQ(js["boundary_chords"]["left"].get<int>(), 0);
+  const TetMesh in = read_volume((split / "input.vtk").string());
+  const TetMesh ball = read_volume((split / "ball.vtk").string());
+  EXPECT_EQ(in.num_vertices(), a.num_vertices() + left);
+  EXPECT_EQ(ball.num_vertices(), in.num_vertices());
+  EXPECT_EQ(ball.T, in.T);
+  EXPECT_TRUE(in.V.topRows(a.num_vertices()).isApprox(a.V));  // old vertices first, unmoved
+
+  // Without --quiet the plain run names the file and the fix on stderr.
+  const std::string cmd = std::string(SHAPEMAP_BINARY) + " --threads 1 ball " + A.string() + " -o " +
+                          (tmp.path / "noisy").string() + " --max-iterations 5 2> " + err.string() + " > /dev/null";
+  ASSERT_EQ(std::system(cmd.c_str()), 0);
+  const std::string msg = slurp(err);
+  EXPECT_NE(msg.find(A.string() + ": note: " + std::to_string(left) + " interior edges"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("--split-chords"), std::string::npos) << msg;
+}

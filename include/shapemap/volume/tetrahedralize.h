@@ -2,6 +2,7 @@
 #pragma once
 #include "shapemap/mesh.h"
 #include "shapemap/progress.h"
+#include <string>
 
 namespace shapemap {
 
@@ -17,9 +18,16 @@ struct TetrahedralizeOptions {
   double optimize_time_limit = 0;  // seconds per sliver step; 0 = none (keeps runs deterministic)
 };
 
+// What tetrahedralize() did with the sharp creases of the input (for the caller's report).
+struct TetrahedralizeInfo {
+  bool creases_protected = false;  // creases found and kept as protected 1D features
+  std::string creases_dropped;     // non-empty: CGAL's crease protection failed (its check,
+                                   // quoted); the surface was meshed without it
+};
+
 // V, F: closed, manifold, consistently oriented surface. Throws InputError if not.
 // The result has positively oriented tets and no inverted elements.
 TetMesh tetrahedralize(const TriMesh& surface, const TetrahedralizeOptions& opt = {},
-                       const ProgressCallback& progress = {});
+                       const ProgressCallback& progress = {}, TetrahedralizeInfo* info = nullptr);
 
 }  // namespace shapemap
