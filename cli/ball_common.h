@@ -10,6 +10,8 @@
 #include "shapemap/io.h"
 #include "shapemap/volume/ball_param.h"
 #include "shapemap/volume/tetrahedralize.h"
+#include <algorithm>
+#include <cstdio>
 #include <iostream>
 #include <string>
 
@@ -57,6 +59,21 @@ inline BallInput load_ball_input(const std::string& path, int tets, bool split_c
                    "--split-chords splits them (docs/methods.md)\n";
   }
   return in;
+}
+
+// One warning line when a ball map came out unusable (folded tets, or mean D_V above 0.2),
+// with the likely cause when the spherical boundary map already folded; "" otherwise.
+inline std::string ball_quality_warning(const std::string& what, const BallMetrics& m,
+                                        const BallParamResult& r) {
+  if (m.folded_tets == 0 && !(m.dv_mean > 0.2)) return "";
+  char line[512];
+  std::snprintf(line, sizeof line, "%s: warning: the ball map is not bijective or not volume-preserving: %d folded tets (%.2f%%), mean D_V %.3g",
+                what.c_str(), m.folded_tets, 100.0 * m.folded_tets / std::max(1, m.num_tets), m.dv_mean);
+  std::string s = line;
+  if (r.sphere_folded_faces > 0)
+    s += "; the spherical boundary map already folded " + std::to_string(r.sphere_folded_faces) +
+         " faces (a shape too elongated or thin for a conformal start; docs/methods.md)";
+  return s;
 }
 
 inline nlohmann::json ball_metrics_json(const BallMetrics& m) {

@@ -68,8 +68,11 @@ Command register_ball(CLI::App& app, GlobalOptions& g) {
                 " tets; E_I " + std::to_string(r.energy_vsem) + " -> " + std::to_string(r.energy_final) +
                 ", mean D_V " + std::to_string(m.dv_mean) + ", folded " + std::to_string(m.folded_tets) +
                 " -> " + out.final_path() + "/ball.vtk");
-    // E_I alone lets the boundary layer fold over (docs/methods.md): say so when it did.
-    if (m.overlap_fraction > 1e-3)
+    const std::string warning = ball_quality_warning("ball", m, r);
+    if (!warning.empty()) info(g, warning);
+    // E_I alone lets the boundary layer fold over (docs/methods.md): say so when it did
+    // (and the map is otherwise usable).
+    if (warning.empty() && m.overlap_fraction > 1e-3)
       info(g, "ball: note: the map covers " + std::to_string(100 * m.overlap_fraction) +
                   "% of the ball twice (boundary layer folded over); --boundary-barrier 0.01 prevents it");
     return 0;

@@ -9,6 +9,7 @@
 #include "shapemap/maps.h"
 #include "shapemap/volume/register.h"
 #include <cstdio>
+#include <tuple>
 
 namespace shapemap::cli {
 
@@ -102,6 +103,10 @@ Command register_register(CLI::App& app, GlobalOptions& g) {
     out.commit();
     info(g, "register: d(phi) = " + std::to_string(r.d_phi) + " (" + std::to_string(100 * r.d_phi_relative) +
                 "% of A's bbox diagonal) -> " + out.final_path() + "/map_AB.txt");
+    // phi is only as good as the two ball maps it composes.
+    for (const auto& [w, mm, rr] : {std::tuple{std::string("register: A"), &mA, &r.ball_A},
+                                    std::tuple{std::string("register: B"), &mB, &r.ball_B}})
+      if (const std::string s = ball_quality_warning(w, *mm, *rr); !s.empty()) info(g, s);
     return 0;
   };
   return c;

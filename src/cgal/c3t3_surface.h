@@ -52,3 +52,21 @@ TriMesh complex_boundary_surface(const C3t3& c3t3) {
 }
 
 }  // namespace shapemap::cgal_internal
+
+// CGAL's Mesh_3 writes dump-bug.mesh and dump-bug.binary.cgal (tens of MB) into the working
+// directory when one of its errors fires (measured: a noisy sphere whose creases Mesh_3
+// could not refine). shapemap reports the error instead, so each CGAL translation unit
+// replaces the dump for its complex type: SHAPEMAP_NO_C3T3_DUMP(shapemap::C3t3), at global
+// scope after the Mesh_3 headers and before the first mesher call.
+#include <CGAL/Mesh_3/Dump_c3t3.h>
+#define SHAPEMAP_NO_C3T3_DUMP(C3T3)                                       \
+  namespace CGAL {                                                        \
+  template <>                                                             \
+  struct Dump_c3t3<C3T3, true> {                                          \
+    void dump_c3t3(const C3T3&, std::string) const {}                     \
+  };                                                                      \
+  template <>                                                             \
+  struct Dump_c3t3<C3T3, false> {                                         \
+    void dump_c3t3(const C3T3&, std::string) const {}                     \
+  };                                                                      \
+  }

@@ -26,6 +26,11 @@ using Tr = CGAL::Mesh_triangulation_3<Domain, CGAL::Default, CGAL::Sequential_ta
 using C3t3 = CGAL::Mesh_complex_3_in_triangulation_3<Tr>;
 using Criteria = CGAL::Mesh_criteria_3<Tr>;
 using Vertex_handle = Tr::Vertex_handle;
+}  // namespace
+}  // namespace shapemap::cgal_internal
+SHAPEMAP_NO_C3T3_DUMP(shapemap::cgal_internal::C3t3)
+namespace shapemap::cgal_internal {
+namespace {
 
 }  // namespace
 

@@ -8,6 +8,7 @@
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Mesh_complex_3_in_triangulation_3.h>
 #include <CGAL/Mesh_criteria_3.h>
+#include <CGAL/Mesh_error_code.h>
 #include <CGAL/Mesh_triangulation_3.h>
 #include <CGAL/Polyhedral_mesh_domain_with_features_3.h>
 #include <CGAL/Random.h>
@@ -17,7 +18,12 @@
 #include "c3t3_surface.h"  // after the CGAL headers it instantiates
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cmath>
+#include <condition_variable>
+#include <mutex>
+#include <thread>
 #include <memory>
 #include <unordered_map>
 
@@ -32,6 +38,11 @@ using Tr = CGAL::Mesh_triangulation_3<Domain, CGAL::Default, CGAL::Sequential_ta
 using C3t3 = CGAL::Mesh_complex_3_in_triangulation_3<Tr, Domain::Corner_index, Domain::Curve_index>;
 using Criteria = CGAL::Mesh_criteria_3<Tr>;
 using Vertex_handle = Tr::Vertex_handle;
+}  // namespace
+}  // namespace shapemap
+SHAPEMAP_NO_C3T3_DUMP(shapemap::C3t3)
+namespace shapemap {
+namespace {
 
 SurfaceMesh to_surface_mesh(const TriMesh& m, const std::string& name) {
   SurfaceMesh sm;
@@ -84,6 +95,32 @@ double bbox_diagonal(const Eigen::MatrixXd& V) {
 }
 
 Eigen::Vector3d to_eigen(const Point& p) { return {p.x(), p.y(), p.z()}; }
+
+// Sets `stop` after `seconds` unless destroyed first (Mesh_3 polls it between steps).
+class Watchdog {
+ public:
+  explicit Watchdog(double seconds)
+      : thread_([this, seconds] {
+          std::unique_lock<std::mutex> lock(mutex_);
+          if (!cv_.wait_for(lock, std::chrono::duration<double>(seconds), [this] { return done_; }))
+            stop = true;
+        }) {}
+  ~Watchdog() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      done_ = true;
+    }
+    cv_.notify_all();
+    thread_.join();
+  }
+  std::atomic<bool> stop{false};
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  bool done_ = false;
+  std::thread thread_;
+};
 
 }  // namespace
 
@@ -140,31 +177,67 @@ TetMesh tetrahedralize(const TriMesh& surface_in, const TetrahedralizeOptions& o
                                   : P::no_exude();
   const auto odt = opt.odt ? P::odt(P::time_limit = tl, P::max_iteration_number = 10) : P::no_odt();
   report(progress, "tetrahedralize/refine", 0);
+  // Runaway guard (deterministic): on noisy surfaces Mesh_3 can refine around tiny crease
+  // features without end (measured: a randomly perturbed icosphere ran > 200 s). A cap of
+  // twice the expected tet count in vertices (~10x the expected vertex count).
+  const double expected_tets = 6 * std::sqrt(2.0) * vol * kTetFill / (L * L * L);
+  const std::size_t max_vertices = std::size_t(std::max(20000.0, 2 * expected_tets));
+  CGAL::Mesh_error_code mesh_error = CGAL::CGAL_MESH_3_NO_ERROR;
+  CGAL::parameters::internal::Mesh_3_options guard;
+  guard.maximal_number_of_vertices = max_vertices;
+  guard.pointer_to_error_code = &mesh_error;
   CGAL::Random rng(opt.seed);
+  SurfaceMesh sm_plain;  // the fallback's surface (outlives its domain)
   auto domain = std::make_unique<Domain>(sm, &rng);
   if (opt.faithful_boundary) domain->detect_features(60);  // protect creases sharper than 120 deg dihedral
   bool meshed = false;
   if (opt.faithful_boundary && domain->maximal_curve_index() != Domain::Curve_index()) {
     // CGAL's checks are on in this library (CMakeLists.txt): a failure of the crease
-    // protection is an exception, and the surface is meshed again without it.
+    // protection is an exception, and the surface is meshed again without it; so is a
+    // protected meshing that hits the vertex cap.
     try {
+      // Some noisy surfaces make the protected refinement crawl without adding vertices
+      // (measured: a perturbed icosphere, > 300 s): a wall-clock budget, after which the
+      // plain meshing takes over. Only such inputs depend on the machine's speed.
+      Watchdog watchdog(opt.crease_time_limit > 0 ? opt.crease_time_limit : 1e9);
+      guard.pointer_to_stop_atomic_boolean = &watchdog.stop;
       c3t3 = CGAL::make_mesh_3<C3t3>(*domain, criteria, P::features(*domain), perturb, exude, odt,
-                                     P::no_lloyd(), P::manifold());
-      meshed = true;
-      if (info) info->creases_protected = true;
+                                     P::no_lloyd(), P::manifold(), guard);
+      guard.pointer_to_stop_atomic_boolean = nullptr;
+      if (mesh_error == CGAL::CGAL_MESH_3_NO_ERROR) {
+        meshed = true;
+        if (info) info->creases_protected = true;
+      } else if (info) {
+        info->creases_dropped = mesh_error == CGAL::CGAL_MESH_3_STOPPED
+                                    ? "took over " + std::to_string(int(opt.crease_time_limit)) + " s"
+                                    : "more than " + std::to_string(max_vertices) + " vertices";
+      }
     } catch (const CGAL::Failure_exception& e) {
+      guard.pointer_to_stop_atomic_boolean = nullptr;
       if (info) info->creases_dropped = e.expression() + " (" + e.filename() + ")";
+    }
+    if (!meshed) {
+      mesh_error = CGAL::CGAL_MESH_3_NO_ERROR;
       c3t3 = C3t3();
       CGAL::get_default_random() = CGAL::Random(opt.seed);
       rng = CGAL::Random(opt.seed);
-      domain = std::make_unique<Domain>(sm, &rng);
+      // A fresh surface: detect_features() left its patch and crease property maps on sm.
+      sm_plain = to_surface_mesh(surface, name);
+      domain = std::make_unique<Domain>(sm_plain, &rng);
     }
   }
   if (!meshed) {
     int npts = int(std::clamp(area / (L * L) / 8, 20.0, 400.0));
     insert_initial_points(c3t3, *domain, surface, npts, 1.5 * L);
-    CGAL::refine_mesh_3(c3t3, *domain, criteria, perturb, exude, odt, P::no_lloyd(),
-                        P::no_reset_c3t3(), P::manifold());
+    try {
+      CGAL::refine_mesh_3(c3t3, *domain, criteria, perturb, exude, odt, P::no_lloyd(),
+                          P::no_reset_c3t3(), P::manifold(), guard);
+    } catch (const CGAL::Failure_exception& e) {
+      throw Error("tetrahedralize: CGAL Mesh_3 failed (" + e.expression() + ")");
+    }
+    if (mesh_error != CGAL::CGAL_MESH_3_NO_ERROR)
+      throw InputError(name + ": Mesh_3 refinement did not converge (over " + std::to_string(max_vertices) +
+                       " vertices); the surface is too noisy or too thin for this tet size");
   }
   report(progress, "tetrahedralize/refine", 1);
 

@@ -2,7 +2,9 @@
 // (ASCII, binary). See docs/formats.md for the exact variants accepted.
 #include "io_detail.h"
 #include "shapemap/io.h"
+#include <algorithm>
 #include <array>
+#include <cctype>
 #include <unordered_map>
 
 namespace shapemap::detail {
@@ -45,7 +47,8 @@ std::string out_of_range(long long index, int n) {
 
 // ---------------------------------------------------------------------------------
 // OBJ: "v x y z [w|r g b]" and "f a b c ..." with a, a/t, a//n, a/t/n; negative
-// indices count back from the last vertex read. Everything else is ignored.
+// indices count back from the last vertex read. Other statements are ignored; a line
+// that does not start with a keyword (letters, digits, '_') is an error.
 TriMesh read_obj(const std::string& path) {
   std::string data = read_file_bytes(path);
   Parser P(path, data);
@@ -90,6 +93,12 @@ TriMesh read_obj(const std::string& path) {
         raw.push_back(idx[k + 1]);
         face_line.push_back(P.line());
       }
+    } else if (!std::all_of(tok.begin(), tok.end(), [](char c) {
+                 return std::isalnum(static_cast<unsigned char>(c)) || c == '_';
+               })) {
+      // Other OBJ statements (vt, vn, g, usemtl, ...) are ignored, but a line that does
+      // not start with a keyword at all is damage (e.g. "f" fused with its first index).
+      P.fail("not an OBJ statement: line starts with " + quote(tok));
     }
     P.skip_line();
   }

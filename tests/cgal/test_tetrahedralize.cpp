@@ -155,3 +155,29 @@ TEST(Shapes, SimpleShapesAreClosedWithTheRightGenus) {
   EXPECT_NEAR(enclosed_volume(s.V, s.F), 4.0 / 3 * M_PI * 8, 0.01 * 4.0 / 3 * M_PI * 8);
   EXPECT_NEAR(s.V.rowwise().norm().maxCoeff(), 2.0, 1e-12);
 }
+
+// A sphere whose vertices are pushed in and out at random: nearly every edge is a crease.
+TEST(Tetrahedralize, CreaseProtectionFallsBackToPlainMeshing) {
+  TriMesh s = make_sphere(600);
+  std::srand(4);
+  for (int i = 0; i < s.num_vertices(); ++i) s.V.row(i) *= 1.0 + 0.15 * (std::rand() / double(RAND_MAX) - 0.5);
+  TetrahedralizeOptions opt;
+  opt.target_tets = 3000;
+  TetrahedralizeInfo info;
+  // Protected meshing finishes without a limit ...
+  TetMesh a = tetrahedralize(s, opt, {}, &info);
+  EXPECT_TRUE(info.creases_protected);
+  EXPECT_TRUE(info.creases_dropped.empty());
+  expect_valid_ball(a);
+  // ... and a budget far below its run time makes the plain meshing take over.
+  opt.crease_time_limit = 1e-3;
+  TetMesh b = tetrahedralize(s, opt, {}, &info);
+  EXPECT_FALSE(info.creases_protected);
+  EXPECT_NE(info.creases_dropped.find("took over"), std::string::npos) << info.creases_dropped;
+  expect_valid_ball(b);
+  // The fallback is the plain meshing, exactly.
+  opt.faithful_boundary = false;
+  TetMesh c = tetrahedralize(s, opt, {}, &info);
+  EXPECT_EQ(b.T, c.T);
+  EXPECT_TRUE(b.V.isApprox(c.V));
+}

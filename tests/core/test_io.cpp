@@ -149,6 +149,9 @@ TEST(IO, ObjErrorsNameFileAndLine) {
   EXPECT_EQ(error_of([&] { read_surface(p); }), p + ":4: face index 0 (OBJ indices start at 1)");
   write_file(p, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 -4 2\n");
   EXPECT_EQ(error_of([&] { read_surface(p); }), p + ":4: face index -4 out of range (3 vertices)");
+  // A damaged keyword (a byte of the space after "f" flipped) is an error, not a skipped line.
+  write_file(p, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf\xc2" "1 2 3\n");
+  EXPECT_EQ(error_of([&] { read_surface(p); }), p + ":4: not an OBJ statement: line starts with 'f\\xc21'");
   write_file(p, "");
   EXPECT_EQ(error_of([&] { read_surface(p); }), p + ": no vertices");
   write_file(p, "v 0 0 0\n");

@@ -16,6 +16,8 @@ struct TetrahedralizeOptions {
   bool odt = false;                // also CGAL ODT smoothing before perturb/exude (slower)
   double sliver_bound = 10;        // perturb/exude target: smallest dihedral angle (degrees)
   double optimize_time_limit = 0;  // seconds per sliver step; 0 = none (keeps runs deterministic)
+  double crease_time_limit = 60;   // seconds for the crease-protected meshing before it is
+                                   // dropped for plain meshing (0 = none; noisy inputs only)
 };
 
 // What tetrahedralize() did with the sharp creases of the input (for the caller's report).
