@@ -7,6 +7,7 @@
 // --method elastic: elastic correspondence refinement (src/surface/elastic.cpp) of an
 //   initial map from BIM (--init bim, default) or from a map file (--init FILE).
 #include "common.h"
+#include "shapemap/checks.h"
 #include "shapemap/error.h"
 #include "shapemap/io.h"
 #include "shapemap/maps.h"
@@ -101,6 +102,12 @@ int run_bim(const SurfaceMapArgs& a, const GlobalOptions& g) {
   Inputs in = read_inputs(a);
   OutputDir out(a.out);
   BIMOptions o = bim_options(a, g, in);
+  {
+    // The library's input guard, before the progress line: bad input gives one line.
+    TriMesh ca = in.A, cb = in.B;
+    require_genus0_surface(ca, a.A, o.min_vertices);
+    require_genus0_surface(cb, a.B, o.min_vertices);
+  }
   timer.start("bim");
   info(g, "surface-map: Blended Intrinsic Maps " + a.A + " -> " + a.B);
   BIMResult r = blended_intrinsic_maps(in.A, in.B, o, make_progress(g));
