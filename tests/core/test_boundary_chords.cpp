@@ -37,9 +37,8 @@ TetMesh kuhn_grid(int n) {
   return m;
 }
 
-// Brute force: faces used once are boundary; an edge is a chord when both endpoints are on
-// some boundary face and no boundary face contains both.
-std::set<std::array<int, 2>> chords_brute_force(const TetMesh& m) {
+// How many tets use each face (sorted vertex triple).
+std::map<std::array<int, 3>, int> face_counts(const TetMesh& m) {
   std::map<std::array<int, 3>, int> count;
   for (Eigen::Index t = 0; t < m.T.rows(); ++t)
     for (int skip = 0; skip < 4; ++skip) {
@@ -50,6 +49,13 @@ std::set<std::array<int, 2>> chords_brute_force(const TetMesh& m) {
       std::sort(f.begin(), f.end());
       ++count[f];
     }
+  return count;
+}
+
+// Brute force: faces used once are boundary; an edge is a chord when both endpoints are on
+// some boundary face and no boundary face contains both.
+std::set<std::array<int, 2>> chords_brute_force(const TetMesh& m) {
+  const std::map<std::array<int, 3>, int> count = face_counts(m);
   std::set<int> bv;
   std::set<std::array<int, 2>> be;
   for (const auto& [f, c] : count)
@@ -120,17 +126,7 @@ TEST(BoundaryChords, MatchesBruteForceAndSplittingKeepsBoundaryAndVolume) {
     EXPECT_EQ(boundary_only_tets(m), 0);
     EXPECT_EQ(boundary_triangles(m), boundary_triangles(before));
     // Every face is shared by at most two tets (a conforming split).
-    std::map<std::array<int, 3>, int> count;
-    for (Eigen::Index t = 0; t < m.T.rows(); ++t)
-      for (int skip = 0; skip < 4; ++skip) {
-        std::array<int, 3> f;
-        int k = 0;
-        for (int c = 0; c < 4; ++c)
-          if (c != skip) f[k++] = m.T(t, c);
-        std::sort(f.begin(), f.end());
-        ++count[f];
-      }
-    for (const auto& [f, c] : count) EXPECT_LE(c, 2);
+    for (const auto& [f, c] : face_counts(m)) EXPECT_LE(c, 2);
   }
 }
 
