@@ -109,6 +109,7 @@ inline nlohmann::json ball_result_json(const BallParamResult& r) {
   j["frame_rotations"] = r.frame_rotations;
   j["evaluations"] = r.evaluations;
   j["sphere_map_folded_faces"] = r.sphere_folded_faces;
+  j["sphere_map_start"] = r.sphere_start == 2 ? "latitude-longitude" : r.sphere_start == 1 ? "linear" : "conformal";
   j["inverted_tets_after_vsem"] = r.inverted_vsem;
   j["inverted_tets_after_cg"] = r.inverted_cg;
   j["polish_iterations"] = r.polish_iterations;

@@ -2,8 +2,9 @@
 // subcommands in-process (exactly what a user would type), so the demo exercises the
 // real command-line contract: generate a creature pair with ground truth -> BIM ->
 // elastic refinement -> tetrahedralize -> automatic symmetric volume map -> ball
-// parameterization -> registration through the ball; evaluates each map against the
-// ground truth, prints a summary table and writes DIR/index.html.
+// parameterization -> registration through the ball -> symmetric volume map initialized by
+// that registration; evaluates each map against the ground truth, prints a summary table
+// and writes DIR/index.html.
 #include "common.h"
 #include "shapemap/error.h"
 #include "shapemap/io.h"
@@ -92,6 +93,12 @@ int run_demo(const DemoArgs& a, const GlobalOptions& g) {
       {"register eval", "register", "registration A->B vs the ground-truth deformation",
        {"evaluate", "volume", P + "/A.vtk", P + "/B.vtk", D + "/register/map_AB.txt", "--truth",
         P + "/truth_vol_AB.txt", "-o", D + "/register/evaluation.json"}},
+      {"ball+volume", "volume_ball", "symmetric volume map initialized by the ball registration (both ways)",
+       {"volume-map", P + "/A.vtk", P + "/B.vtk", "-o", D + "/volume_ball", "--init", "ball"}},
+      {"ball+volume eval", "volume_ball", "ball-initialized volume map A->B vs the ground-truth deformation",
+       {"evaluate", "volume", P + "/A.vtk", P + "/B.vtk", D + "/volume_ball/map_AB.txt", "--map-ba",
+        D + "/volume_ball/map_BA.txt", "--truth", P + "/truth_vol_AB.txt", "-o",
+        D + "/volume_ball/evaluation.json"}},
   };
   int failures = 0;
   for (auto& s : steps) {
@@ -145,6 +152,7 @@ int run_demo(const DemoArgs& a, const GlobalOptions& g) {
                         pick(r, {"/optimization/E_I_final"})});
   }
   volume_row("register", "register");
+  volume_row("ball+volume", "volume_ball");
   std::ostringstream table;
   table << "\n" << std::left;
   char line[512];

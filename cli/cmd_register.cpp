@@ -1,8 +1,9 @@
 // shapemap register A B -o OUT [--via ball] [--frames K]: volume-preserving registration of
 // two tet meshes through their ball parameterizations (isovolumetric-ball-parameterization
 // .txt, Sec. 7). Writes map_AB.txt (vertex of A -> tet of B + barycentric), A_on_B.vtk (A's
-// connectivity at phi(v)), report.json (ball metrics of both, rotations, d(phi), volume-map
-// metrics) and, with --frames K, frames/frame_XXX.vtk of the linear homotopy (Eq. 46).
+// connectivity at phi(v)), the reverse map_BA.txt / B_on_A.vtk (psi = f_A^{-1} h^{-1} f_B),
+// report.json (ball metrics of both, rotations, d(phi), volume-map metrics per direction)
+// and, with --frames K, frames/frame_XXX.vtk of the linear homotopy (Eq. 46).
 #include "ball_common.h"
 #include "figures.h"
 #include "shapemap/eval/volume_metrics.h"
@@ -60,13 +61,16 @@ Command register_register(CLI::App& app, GlobalOptions& g) {
     const RegisterResult r = register_through_ball(A, B, a->opt, progress, a->A, a->B);
     timer.start("metrics");
     const BallMetrics mA = ball_metrics(A, r.ball_A.f), mB = ball_metrics(B, r.ball_B.f);
-    const VolumeMapMetrics vm = volume_map_metrics(A, B, r.A_on_B);
+    const VolumeMapMetrics vm = volume_map_metrics(A, B, r.A_on_B, &r.map_AB, &r.B_on_A);
+    const VolumeMapMetrics vm21 = volume_map_metrics(B, A, r.B_on_A, &r.map_BA, &r.A_on_B);
     timer.start("write");
     write_map(out.path("map_AB.txt"), r.map_AB);
     TetMesh AonB;
     AonB.V = r.A_on_B;
     AonB.T = A.T;
     write_volume(out.path("A_on_B.vtk"), AonB);
+    write_map(out.path("map_BA.txt"), r.map_BA);
+    write_volume(out.path("B_on_A.vtk"), TetMesh{r.B_on_A, B.T});
     if (inA.changed()) write_volume(out.path("A.vtk"), A);
     if (inB.changed()) write_volume(out.path("B.vtk"), B);
     for (size_t k = 0; k < r.frames.size(); ++k) {
@@ -91,8 +95,10 @@ Command register_register(CLI::App& app, GlobalOptions& g) {
     j["d_phi"] = r.d_phi;
     j["d_phi_relative_to_bbox_diagonal"] = r.d_phi_relative;
     j["vertices_outside_ball_mesh"] = r.outside;
+    j["vertices_outside_ball_mesh_BA"] = r.outside_BA;
     j["frames"] = int(r.frames.size());
     j["metrics"] = volume_metrics_json(vm);
+    j["metrics_BA"] = volume_metrics_json(vm21);
     timer.start("pictures");
     auto figures = volume_map_figures(A, r.A_on_B, nullptr, nullptr);
     for (auto& f : ball_figures(B, r.ball_B.f)) figures.push_back({"ball_B.png", "Ball of B: " + f.caption, f.image});

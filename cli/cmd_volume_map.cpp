@@ -2,7 +2,7 @@
 // (symmetric-volume-maps.txt). Inputs: tet meshes (.mesh .vtk .msh .node/.ele) or closed
 // genus-0 surfaces (.obj .off .ply .stl, tetrahedralized first).
 //
-//   shapemap volume-map A B -o OUT [--init auto|landmarks|surface-map]
+//   shapemap volume-map A B -o OUT [--init auto|ball|landmarks|surface-map]
 //                       [--landmarks LA LB] [--surface-map MAP_AB MAP_BA]
 //
 // Writes OUT/map_AB.txt, map_BA.txt (vertex -> target tet + barycentric), A_on_B.vtk,
@@ -15,6 +15,7 @@
 #include "shapemap/eval/volume_metrics.h"
 #include "shapemap/io.h"
 #include "shapemap/maps.h"
+#include "shapemap/volume/register.h"
 #include "shapemap/volume/symmetric_map.h"
 #include "shapemap/volume/tetrahedralize.h"
 #include <Eigen/Dense>
@@ -98,9 +99,10 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
   c.app->add_option("B", a->B, "Target: tet mesh or closed surface")->required();
   c.app->add_option("-o,--output", a->out, "Output folder")->required();
   c.app->add_option("--init", a->init, "Initialization: auto (surface map by BIM + elastic), "
+                                       "ball (registration through ball maps, both ways), "
                                        "landmarks, surface-map (default: landmarks if given, "
                                        "else surface-map if given, else auto)")
-      ->check(CLI::IsMember({"auto", "landmarks", "surface-map"}));
+      ->check(CLI::IsMember({"auto", "ball", "landmarks", "surface-map"}));
   c.app->add_option("--landmarks", a->landmarks, "Landmark files LA LB (vertex index or x y z per line)")
       ->expected(2);
   c.app->add_option("--surface-map", a->surface_map,
@@ -159,6 +161,14 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
                          a->landmarks[0] + " has " + std::to_string(LA.size()));
       i12 = landmark_initial_map(A, B, LA, LB);
       i21 = landmark_initial_map(B, A, LB, LA);
+    } else if (init == "ball") {
+      // Both directions from one pair of ball maps (Sec. 7 of the isovolumetric paper):
+      // volume-preserving, landmark-free, no surface map needed.
+      RegisterResult rr = register_through_ball(A, B, {}, progress, a->A, a->B);
+      i12 = std::move(rr.map_AB);
+      i21 = std::move(rr.map_BA);
+      init_detail = "ball (registration through the ball, d(phi) " + std::to_string(rr.d_phi_relative) +
+                    " of A's bbox diagonal)";
     } else {
       // The surfaces the surface map lives on.
       auto pick = [](const VolumeInput& in, const TetBoundary& bd, int n, const std::string& file) {

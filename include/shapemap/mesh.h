@@ -49,6 +49,9 @@ double signed_volume(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T);     //
 double enclosed_volume(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F);   // of a closed surface
 Eigen::VectorXd triangle_areas(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F);
 Eigen::VectorXd tet_volumes(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T); // signed
+// Faces of F whose cone from the origin is positive, V_i . (V_j x V_k) > 0 (the others are
+// flat, inverted or NaN): the orientation of a triangle mesh mapped onto a sphere.
+int positive_origin_cones(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F);
 Eigen::MatrixXd face_normals(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F);   // unit
 Eigen::MatrixXd vertex_normals(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F); // area weighted, unit
 

@@ -33,6 +33,15 @@ Eigen::VectorXd tet_volumes(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T) 
   return vol;
 }
 
+int positive_origin_cones(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
+  int k = 0;
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
+    if (a.dot(b.cross(c)) > 0) ++k;
+  }
+  return k;
+}
+
 double signed_volume(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T) {
   return tet_volumes(V, T).sum();
 }

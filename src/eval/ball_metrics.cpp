@@ -127,16 +127,11 @@ BallMetrics ball_metrics(const TetMesh& mesh, const Eigen::MatrixXd& f) {
   m.folded_tets = std::min(m.positive_tets, m.negative_tets);
   const TetBoundary b = boundary_surface(mesh);
   m.num_boundary_vertices = int(b.to_volume.size());
-  int pos = 0, neg = 0;
-  for (Eigen::Index q = 0; q < b.surface.F.rows(); ++q) {
-    const Eigen::Vector3d fi = f.row(b.to_volume(b.surface.F(q, 0))), fj = f.row(b.to_volume(b.surface.F(q, 1))),
-                          fk = f.row(b.to_volume(b.surface.F(q, 2)));
-    if (fi.dot(fj.cross(fk)) > 0)
-      ++pos;
-    else
-      ++neg;
-  }
-  m.flipped_boundary_faces = std::min(pos, neg);
+  Eigen::MatrixXi Fv(b.surface.F.rows(), 3);  // boundary faces in volume vertex numbers
+  for (Eigen::Index q = 0; q < Fv.rows(); ++q)
+    for (int c = 0; c < 3; ++c) Fv(q, c) = b.to_volume(b.surface.F(q, c));
+  const int pos = positive_origin_cones(f, Fv);
+  m.flipped_boundary_faces = std::min(pos, int(Fv.rows()) - pos);
   ball_coverage(f, mesh.T, 100000, m.overlap_fraction, m.uncovered_fraction, m.coverage_samples);
   for (Eigen::Index k = 0; k < b.to_volume.size(); ++k)
     m.boundary_sphere_error =

@@ -12,6 +12,27 @@ namespace shapemap {
 namespace {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+// Locates the points P (source vertices carried into the target's ball) in the target's
+// ball mesh (f_target, target.T): the map (clamped barycentrics) and its positions in the
+// target. Returns how many points lay outside the polyhedral ball (snapped to the closest tet).
+int compose_through_ball(const Eigen::MatrixXd& P, const Eigen::MatrixXd& f_target,
+                         const TetMesh& target, BarycentricMap& map, Eigen::MatrixXd& positions) {
+  TetLocator loc(f_target, target.T);
+  const std::vector<ClosestPointResult> hits = loc.locate(P);
+  const Eigen::Index n = P.rows();
+  map.elem.resize(n);
+  map.bary.resize(n, 4);
+  int outside = 0;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    map.elem(i) = hits[i].elem;
+    Eigen::Vector4d b = hits[i].bary.cwiseMax(0.0);
+    b /= b.sum();
+    map.bary.row(i) = b.transpose();
+    if (hits[i].sqdist > 1e-20) ++outside;
+  }
+  positions = map_positions(map, target.V, target.T);
+  return outside;
+}
 }  // namespace
 
 Eigen::VectorXd vertex_volumes(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T) {
@@ -74,22 +95,11 @@ RegisterResult register_through_ball(const TetMesh& A, const TetMesh& B, const R
   r.g_B = rotation(B, r.ball_B.f);
   r.h = r.g_B.transpose() * r.g_A;  // h = g_1^{-1} g_0
 
-  // phi = f_1^{-1} o h o f_0: locate h f_0(v) in B's ball mesh.
+  // phi = f_1^{-1} o h o f_0: locate h f_0(v) in B's ball mesh; psi likewise with h^{-1}.
   const auto tl = Clock::now();
-  TetLocator loc(r.ball_B.f, B.T);
-  const Eigen::MatrixXd P = r.ball_A.f * r.h.transpose();
-  const std::vector<ClosestPointResult> hits = loc.locate(P);
+  r.outside = compose_through_ball(r.ball_A.f * r.h.transpose(), r.ball_B.f, B, r.map_AB, r.A_on_B);
+  r.outside_BA = compose_through_ball(r.ball_B.f * r.h, r.ball_A.f, A, r.map_BA, r.B_on_A);
   const int nA = A.num_vertices();
-  r.map_AB.elem.resize(nA);
-  r.map_AB.bary.resize(nA, 4);
-  for (int i = 0; i < nA; ++i) {
-    r.map_AB.elem(i) = hits[i].elem;
-    Eigen::Vector4d b = hits[i].bary.cwiseMax(0.0);
-    b /= b.sum();
-    r.map_AB.bary.row(i) = b.transpose();
-    if (hits[i].sqdist > 1e-20) ++r.outside;
-  }
-  r.A_on_B = map_positions(r.map_AB, B.V, B.T);
   r.seconds_locate = since(tl);
 
   // d(phi) (Sec. 7).

@@ -72,10 +72,12 @@ TEST(CliBall, BallRegisterEvaluateAndBadInput) {
                 err),
             0)
       << slurp(err);
-  for (const char* f : {"map_AB.txt", "A_on_B.vtk", "report.json", "frames/frame_000.vtk", "frames/frame_002.vtk"})
+  for (const char* f : {"map_AB.txt", "A_on_B.vtk", "map_BA.txt", "B_on_A.vtk", "report.json",
+                        "frames/frame_000.vtk", "frames/frame_002.vtk"})
     EXPECT_TRUE(fs::exists(reg / f)) << f;
   const nlohmann::json r = nlohmann::json::parse(slurp(reg / "report.json"));
   EXPECT_TRUE(r.contains("d_phi"));
+  EXPECT_TRUE(r.contains("metrics_BA"));
 
   // not a ball -> exit 2, one line naming the file, no output folder
   const fs::path bad = tmp.path / "bad";

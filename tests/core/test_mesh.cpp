@@ -3,6 +3,7 @@
 #include "shapemap/adjacency.h"
 #include "shapemap/mesh.h"
 #include <gtest/gtest.h>
+#include <cmath>
 
 using namespace shapemap;
 
@@ -51,6 +52,32 @@ TEST(Mesh, TetrahedronSurfaceMeasures) {
   EXPECT_NEAR(N(0, 2), -1.0, 1e-12);  // bottom face points down (outward)
   Eigen::MatrixXd VN = vertex_normals(m.V, m.F);
   for (int i = 0; i < 4; ++i) EXPECT_NEAR(VN.row(i).norm(), 1.0, 1e-12);
+}
+
+TEST(Mesh, PositiveOriginCones) {
+  // The outward tetrahedron surface, centred: all four cones from the centre are positive;
+  // a reversed face or NaN coordinates are not.
+  TriMesh m = tetrahedron_surface();
+  m.V.rowwise() -= m.V.colwise().mean();
+  EXPECT_EQ(positive_origin_cones(m.V, m.F), 4);
+  Eigen::MatrixXi F = m.F;
+  std::swap(F(1, 1), F(1, 2));
+  EXPECT_EQ(positive_origin_cones(m.V, F), 3);
+  const Eigen::MatrixXd Vn = Eigen::MatrixXd::Constant(4, 3, std::nan(""));
+  EXPECT_EQ(positive_origin_cones(Vn, m.F), 0);
+  // Brute force: the sign of the tet (origin, i, j, k) by tet_volumes, on random triangles.
+  const Eigen::MatrixXd R = Eigen::MatrixXd::Random(30, 3);
+  Eigen::MatrixXi G(40, 3);
+  for (int f = 0; f < 40; ++f)
+    for (int c = 0; c < 3; ++c) G(f, c) = (7 * f + 11 * c + f * c) % 30;
+  Eigen::MatrixXd W(31, 3);
+  W << R, Eigen::RowVector3d::Zero();
+  Eigen::MatrixXi T(40, 4);
+  T << Eigen::VectorXi::Constant(40, 30), G;
+  const int ref = int((tet_volumes(W, T).array() > 0).count());
+  EXPECT_GT(ref, 5);
+  EXPECT_LT(ref, 35);
+  EXPECT_EQ(positive_origin_cones(R, G), ref);
 }
 
 TEST(Mesh, Normalizations) {

@@ -2,6 +2,8 @@
 // (isovolumetric-ball-parameterization.txt, Sec. 7): f_s : M_s -> B^3 by Algorithm 1,
 // rotations g_s by volume-weighted Procrustes, h = g_1^{-1} g_0, and
 // phi = f_1^{-1} o h o f_0 by point location in the ball-mapped tet mesh of M_1.
+// The same two ball maps also give the reverse map psi = f_0^{-1} o h^{-1} o f_1 (our
+// addition: both directions initialize the symmetric volume map, `volume-map --init ball`).
 #pragma once
 #include "shapemap/maps.h"
 #include "shapemap/mesh.h"
@@ -38,10 +40,13 @@ struct RegisterResult {
   Eigen::Matrix3d h = Eigen::Matrix3d::Identity();  // g_1^{-1} g_0
   BarycentricMap map_AB;               // vertex of A -> tet of B + barycentric coordinates
   Eigen::MatrixXd A_on_B;              // phi(v), n_A×3, in B's coordinates
+  BarycentricMap map_BA;               // psi: vertex of B -> tet of A (h^{-1} f_1 located in f_0)
+  Eigen::MatrixXd B_on_A;              // psi(v), n_B×3, in A's coordinates
   double d_phi = 0;                    // d(phi) = sum ||v - phi(v)|| vol(v) / |M_0| (Sec. 7)
   double d_phi_relative = 0;           // d(phi) / bounding-box diagonal of A
   int outside = 0;                     // vertices of A whose h f_0(v) fell outside B's ball
                                        // mesh (snapped to the closest tet)
+  int outside_BA = 0;                  // ... of B whose h^{-1} f_1(v) fell outside A's
   std::vector<Eigen::MatrixXd> frames; // H(M_0, t) vertex positions when frames >= 2
   double seconds_locate = 0, seconds_total = 0;
 };

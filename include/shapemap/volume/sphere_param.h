@@ -44,6 +44,14 @@ struct SphereParamOptions {
   // Also run SEM + refinement from the linear map (skipping CEM) when CEM changed it
   // (CEM can compress thin parts further); selection as above.
   bool try_linear_start = true;
+  // When the result of the starts above has folded faces and its max area distortion
+  // |share ratio - 1| exceeds this: also run SEM + refinement from the latitude-longitude
+  // map of Brechbuehler, Gerig, Kuebler 1995 (harmonic latitude between two far-apart
+  // poles, harmonic longitude with a date line, polar angle by area), which does not shrink
+  // long thin parts exponentially as the conformal starts do; selection as above. Not run
+  // on every folded result: on shrec07-61 (1 folded face, distortion 2.9) it wins the
+  // selection but the ball map gets worse (mean D_V 0.062 -> 0.080). 0 = off.
+  double latitude_start_distortion = 10;
   // 4. Riemannian refinement of the authalic energy E_A (Sutti & Yueh 2024, "Riemannian
   // gradient descent methods for spherical area-preserving mappings"): projected-gradient
   // steps on the product of spheres with retraction by normalization, preconditioned by
@@ -61,7 +69,8 @@ struct SphereParamResult {
   double stretch_energy = 0;         // E_S - A(S) after SEM
   int stretch_folded_faces = 0;      // folded faces of the best SEM iterate (before untangling)
   int stretch_damped_steps = 0;      // SEM steps that were damped (t < 1)
-  int start_stage = 0;               // start of SEM kept: 0 = CEM result, 1 = linear map
+  int start_stage = 0;               // start of SEM kept: 0 = CEM result, 1 = linear map,
+                                     // 2 = latitude-longitude map
   bool stretch_damped = false;       // the kept result used the damped SEM (fold allowance)
   int authalic_iterations = 0;       // Riemannian refinement iterations taken
   double authalic_energy_initial = 0; // E_A = A(e)/A(S) E_S - A(S) (shares) before refinement
