@@ -72,7 +72,7 @@ inline std::string ball_quality_warning(const std::string& what, const BallMetri
   std::string s = line;
   if (r.sphere_folded_faces > 0)
     s += "; the spherical boundary map already folded " + std::to_string(r.sphere_folded_faces) +
-         " faces (a shape too elongated or thin for a conformal start; docs/methods.md)";
+         " faces (a shape with long thin parts; docs/methods.md)";
   return s;
 }
 
