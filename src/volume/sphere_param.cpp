@@ -1,6 +1,7 @@
 // Spherical area-preserving map: linear puncture map, conformal energy minimization,
 // stretch energy minimization (see the header and docs/methods.md).
 #include "shapemap/volume/sphere_param.h"
+#include "shapemap/volume/latitude_longitude.h"
 #include "shapemap/error.h"
 #include "shapemap/geometry/sparse_cholesky.h"
 #include <Eigen/Geometry>
@@ -9,7 +10,6 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
-#include <queue>
 #include <vector>
 
 namespace shapemap {
@@ -273,180 +273,6 @@ Plane stereographic(const Eigen::MatrixXd& S) {
                       : Eigen::RowVector2d(std::numeric_limits<double>::infinity(), 0);
   }
   return uv;
-}
-
-// Latitude-longitude start (Brechbuehler, Gerig, Kuebler 1995, "Parametrization of closed
-// surfaces for 3-D shape description"): a start for SEM that does not shrink elongated
-// parts exponentially, as every conformal start does (a tube of length L and width w gets
-// a conformal factor ~exp(-pi L / w): the arms of a pair of glasses vanish numerically).
-//  - poles a, b: a double sweep of Dijkstra distances (approximately the two ends of the
-//    longest extent);
-//  - latitude u: harmonic (L u = 0) with u(a) = 0, u(b) = 1, with the cotangent weights
-//    clamped positive so the maximum principle holds: no interior extrema, so (the surface
-//    being a sphere) no saddles either and every level set is one circle; u grows about
-//    linearly along a tube;
-//  - longitude phi: harmonic with a jump of 2 pi across a date line (the steepest ascent
-//    path of u from a to b), i.e. min sum_e w_e (phi_i - phi_j + 2 pi (l_i(e) - l_j(e)))^2
-//    where l_p(e) = 1 for an edge leaving path vertex p on the left of the path; the poles
-//    are left out;
-//  - polar angle theta from u by area: the cap above a vertex gets the target area share of
-//    the vertices with smaller u (monotone in u, so the structure is kept).
-// Returns n×3 unit vectors (outward orientation by majority), or an empty matrix when the
-// construction fails (e.g. a steepest ascent path that does not reach b).
-Eigen::MatrixXd latitude_longitude_map(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
-                                       const Eigen::SparseMatrix<double>& Lc,
-                                       const Eigen::VectorXd& target) {
-  const Eigen::Index n = V.rows(), m = F.rows();
-  // Positive edge weights: the cotangent weights, clamped at 1% of their mean magnitude.
-  std::vector<std::vector<std::pair<int, double>>> adj(n);
-  double wsum = 0;
-  long wcount = 0;
-  for (Eigen::Index c = 0; c < Lc.outerSize(); ++c)
-    for (Eigen::SparseMatrix<double>::InnerIterator it(Lc, c); it; ++it)
-      if (it.row() != c) {
-        adj[it.row()].emplace_back(int(c), -it.value());
-        wsum += std::abs(it.value());
-        ++wcount;
-      }
-  if (wcount == 0) return {};
-  const double wfloor = 0.01 * wsum / double(wcount);
-  for (auto& a : adj)
-    for (auto& [j, w] : a) w = std::max(w, wfloor);
-
-  auto dijkstra = [&](int src) {
-    Eigen::VectorXd d = Eigen::VectorXd::Constant(n, std::numeric_limits<double>::infinity());
-    using Item = std::pair<double, int>;
-    std::priority_queue<Item, std::vector<Item>, std::greater<Item>> q;
-    d(src) = 0;
-    q.emplace(0.0, src);
-    while (!q.empty()) {
-      const auto [dv, v] = q.top();
-      q.pop();
-      if (dv > d(v)) continue;
-      for (const auto& [j, w] : adj[v]) {
-        const double nd = dv + (V.row(v) - V.row(j)).norm();
-        if (nd < d(j)) {
-          d(j) = nd;
-          q.emplace(nd, j);
-        }
-      }
-    }
-    return d;
-  };
-  Eigen::Index a = 0, b = 0;
-  dijkstra(0).maxCoeff(&a);
-  const Eigen::VectorXd da = dijkstra(int(a));
-  da.maxCoeff(&b);
-  if (a == b || !std::isfinite(da(b))) return {};
-
-  // Harmonic solve over the vertices other than the poles: (L x)_i = rhs_i, the poles
-  // either Dirichlet values (`fixed`) or left out with their edges (fixed empty; the
-  // constant is then pinned at `gauge`).
-  std::vector<int> idx(n, -1);
-  int nu = 0;
-  for (Eigen::Index i = 0; i < n; ++i)
-    if (i != a && i != b) idx[i] = nu++;
-  auto solve = [&](const Eigen::VectorXd& rhs, const Eigen::VectorXd& fixed, int gauge) {
-    const bool dirichlet = fixed.size() == n;
-    std::vector<Eigen::Triplet<double>> trip;
-    trip.reserve(size_t(wcount) + size_t(n));
-    Eigen::VectorXd r = Eigen::VectorXd::Zero(nu);
-    for (Eigen::Index i = 0; i < n; ++i) {
-      if (idx[i] < 0) continue;
-      r(idx[i]) += rhs(i);
-      double diag = 0;
-      for (const auto& [j, w] : adj[i]) {
-        if (idx[j] >= 0)
-          trip.emplace_back(idx[i], idx[j], -w);
-        else if (dirichlet)
-          r(idx[i]) += w * fixed(j);
-        else
-          continue;
-        diag += w;
-      }
-      trip.emplace_back(idx[i], idx[i], diag);
-    }
-    if (gauge >= 0) trip.emplace_back(gauge, gauge, 1.0);  // pins the free constant
-    Eigen::SparseMatrix<double> A(nu, nu);
-    A.setFromTriplets(trip.begin(), trip.end());
-    SparseCholesky chol;
-    chol.compute(A);
-    const Eigen::VectorXd x = chol.solve(r);
-    Eigen::VectorXd out = dirichlet ? fixed : Eigen::VectorXd::Zero(n);
-    for (Eigen::Index i = 0; i < n; ++i)
-      if (idx[i] >= 0) out(i) = x(idx[i]);
-    return out;
-  };
-  Eigen::VectorXd fixed = Eigen::VectorXd::Zero(n);
-  fixed(b) = 1;
-  const Eigen::VectorXd u = solve(Eigen::VectorXd::Zero(n), fixed, -1);
-
-  // Date line: steepest ascent of u from a to b.
-  std::vector<int> path = {int(a)};
-  while (path.back() != b) {
-    const int v = path.back();
-    int next = -1;
-    double best = u(v);
-    for (const auto& [j, w] : adj[v])
-      if (u(j) > best) {
-        best = u(j);
-        next = j;
-      }
-    if (next < 0 || int(path.size()) > n) return {};
-    path.push_back(next);
-  }
-  // Counter-clockwise successor in each one-ring: face (i, j, k) turns j into k around i.
-  std::vector<std::vector<std::pair<int, int>>> succ(n);
-  for (Eigen::Index f = 0; f < m; ++f)
-    for (int c = 0; c < 3; ++c) succ[F(f, c)].emplace_back(F(f, (c + 1) % 3), F(f, (c + 2) % 3));
-  auto successor = [&](int i, int j) {
-    for (const auto& [x, y] : succ[i])
-      if (x == j) return y;
-    return -1;
-  };
-  // left[i]: the neighbours of path vertex i strictly between its successor and its
-  // predecessor on the path, counter-clockwise (the left side of the walk a -> b).
-  std::vector<std::vector<int>> left(n);
-  for (size_t k = 1; k + 1 < path.size(); ++k) {
-    const int p = path[k], prev = path[k - 1], nxt = path[k + 1];
-    int j = successor(p, nxt);
-    for (size_t guard = 0; j >= 0 && j != prev && guard < adj[p].size(); ++guard) {
-      left[p].push_back(j);
-      j = successor(p, j);
-    }
-    if (j != prev) return {};  // not a manifold one-ring
-  }
-  auto is_left = [&](int p, int q) {
-    return std::find(left[p].begin(), left[p].end(), q) != left[p].end() ? 1.0 : 0.0;
-  };
-  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(n);
-  for (Eigen::Index i = 0; i < n; ++i)
-    for (const auto& [j, w] : adj[i]) rhs(i) -= w * 2 * M_PI * (is_left(int(i), j) - is_left(j, int(i)));
-  int gauge = -1;
-  for (Eigen::Index i = 0; i < n && gauge < 0; ++i)
-    if (idx[i] >= 0 && left[i].empty()) gauge = idx[i];
-  const Eigen::VectorXd phi = solve(rhs, Eigen::VectorXd(), gauge);
-
-  // Polar angle by area: 1 - cos(theta_i) = 2 * (target share of the vertices below).
-  Eigen::VectorXd vw = Eigen::VectorXd::Zero(n);
-  for (Eigen::Index f = 0; f < m; ++f)
-    for (int c = 0; c < 3; ++c) vw(F(f, c)) += target(f) / 3;
-  std::vector<int> order(n);
-  for (Eigen::Index i = 0; i < n; ++i) order[i] = int(i);
-  std::sort(order.begin(), order.end(), [&](int x, int y) { return u(x) < u(y); });
-  const double total = vw.sum();
-  Eigen::MatrixXd S(n, 3);
-  double below = 0;
-  for (int i : order) {
-    const double share = i == a ? 0 : i == b ? 1 : std::clamp((below + 0.5 * vw(i)) / total, 0.0, 1.0);
-    below += vw(i);
-    const double ct = 1 - 2 * share, st = std::sqrt(std::max(0.0, 1 - ct * ct));
-    S.row(i) << st * std::cos(phi(i)), st * std::sin(phi(i)), ct;
-  }
-  if (spherical_folded_faces(S, F) > m / 2) S.col(1) *= -1;  // mirror to the outward orientation
-  // Tilt the pole axis off the projection pole (0, 0, 1) of the SEM steps.
-  const Eigen::Matrix3d R = (Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized())).toRotationMatrix();
-  return (S * R.transpose()).eval();
 }
 
 struct Stage {
@@ -749,8 +575,10 @@ SphereParamResult spherical_area_preserving_map(const TriMesh& surface,
     if (opt.latitude_start_distortion > 0 && res.folded_faces > 0 &&
         res.area_distortion_max > opt.latitude_start_distortion) {
       Stage ll;
-      ll.S = latitude_longitude_map(V, F, Lc, target);
+      ll.S = latitude_longitude_map(surface, Lc, target).S;
       if (ll.S.rows() == n) {
+        // Tilt the pole axis off the projection pole (0, 0, 1) of the SEM steps.
+        ll.S = (ll.S * Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix().transpose()).eval();
         ll.uv = stereographic(ll.S);
         ll.S = inverse_stereographic(ll.uv);
         ll.E = energy_minus_area(Lc, ll.S, F);
