@@ -8,6 +8,7 @@
 // Writes OUT/map_AB.txt, map_BA.txt (vertex -> target tet + barycentric), A_on_B.vtk,
 // B_on_A.vtk (source connectivity, mapped positions in the target's coordinates) and
 // report.json (inputs, parameters, per-stage timings, Table 3 metrics per direction).
+#include "ball_common.h"
 #include "common.h"
 #include "figures.h"
 #include "shapemap/checks.h"
@@ -22,6 +23,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <iterator>
+#include <tuple>
 #include <memory>
 #include <unistd.h>
 
@@ -163,12 +165,23 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
       i21 = landmark_initial_map(B, A, LB, LA);
     } else if (init == "ball") {
       // Both directions from one pair of ball maps (Sec. 7 of the isovolumetric paper):
-      // volume-preserving, landmark-free, no surface map needed.
+      // volume-preserving, landmark-free, no surface map needed. Both inputs are checked
+      // before either ball map is computed (the ball map needs every tet positive).
+      for (const auto& [M, path] : {std::pair<const TetMesh*, std::string>{&A, a->A}, {&B, a->B}}) {
+        require_valid_volume(*M, path + " (--init ball)", 0.0);
+        require_ball_topology(*M, path + " (--init ball)");
+      }
       RegisterResult rr = register_through_ball(A, B, {}, progress, a->A, a->B);
       i12 = std::move(rr.map_AB);
       i21 = std::move(rr.map_BA);
-      init_detail = "ball (registration through the ball, d(phi) " + std::to_string(rr.d_phi_relative) +
-                    " of A's bbox diagonal)";
+      char d[64];
+      std::snprintf(d, sizeof d, "%.4g", rr.d_phi_relative);
+      init_detail = std::string("ball (registration through the ball, d(phi) ") + d + " of A's bbox diagonal)";
+      // A poor ball map makes a poor start: say so, as `register` does.
+      for (const auto& [w, M, br] : {std::tuple{std::string("volume-map --init ball: A"), &A, &rr.ball_A},
+                                     std::tuple{std::string("volume-map --init ball: B"), &B, &rr.ball_B}})
+        if (const std::string msg = ball_quality_warning(w, ball_metrics(*M, br->f), *br); !msg.empty())
+          info(g, msg);
     } else {
       // The surfaces the surface map lives on.
       auto pick = [](const VolumeInput& in, const TetBoundary& bd, int n, const std::string& file) {

@@ -1,6 +1,7 @@
 // Latitude-longitude map of a genus-0 surface onto the sphere (Brechbuehler, Gerig,
 // Kuebler 1995); see the header.
 #include "shapemap/volume/latitude_longitude.h"
+#include "shapemap/error.h"
 #include "shapemap/geometry/laplacian.h"
 #include "shapemap/geometry/sparse_cholesky.h"
 #include <algorithm>
@@ -107,9 +108,12 @@ LatitudeLongitudeMap map_with_poles(const Eigen::MatrixXd& V, const Eigen::Matri
   auto is_left = [&](int p, int q) {
     return std::find(left[p].begin(), left[p].end(), q) != left[p].end() ? 1.0 : 0.0;
   };
+  // Walking south from a, the left is east, where the longitude grows: the left copy of a
+  // path vertex is its right value minus 2 pi, i.e. the minimizer of
+  // sum_e w_e (phi_i - phi_j - 2 pi (l_i(e) - l_j(e)))^2 (positive orientation of (theta, phi)).
   Eigen::VectorXd rhs = Eigen::VectorXd::Zero(n);
   for (Eigen::Index i = 0; i < n; ++i)
-    for (const auto& [j, w] : adj[i]) rhs(i) -= w * 2 * M_PI * (is_left(int(i), j) - is_left(j, int(i)));
+    for (const auto& [j, w] : adj[i]) rhs(i) += w * 2 * M_PI * (is_left(int(i), j) - is_left(j, int(i)));
   int gauge = -1;
   for (Eigen::Index i = 0; i < n && gauge < 0; ++i)
     if (idx[i] >= 0 && left[i].empty()) gauge = idx[i];
@@ -131,7 +135,7 @@ LatitudeLongitudeMap map_with_poles(const Eigen::MatrixXd& V, const Eigen::Matri
     const double ct = 1 - 2 * share, st = std::sqrt(std::max(0.0, 1 - ct * ct));
     S.row(i) << st * std::cos(phi(i)), st * std::sin(phi(i)), ct;
   }
-  if (positive_origin_cones(S, F) < m - m / 2) {  // mirror to the outward orientation
+  if (positive_origin_cones(S, F) < m - m / 2) {  // safety net: mirror if mostly inverted
     S.col(1) *= -1;
     out.longitude = -phi;
   } else {
@@ -166,21 +170,30 @@ LatitudeLongitudeMap latitude_longitude_map(const TriMesh& surface,
   if (n < 4 || m < 4) return out;
   const Eigen::SparseMatrix<double> Lc = laplacian.rows() == n ? laplacian : cotan_laplacian(V, F);
   Eigen::VectorXd target = face_shares.size() == m ? face_shares : triangle_areas(V, F);
-  // Positive edge weights: the cotangent weights, clamped at 1% of their mean magnitude.
+  // Positive edge weights: the cotangent weights, clamped from below.
   Adjacency adj(n);
-  double wsum = 0;
   long wcount = 0;
   for (Eigen::Index c = 0; c < Lc.outerSize(); ++c)
     for (Eigen::SparseMatrix<double>::InnerIterator it(Lc, c); it; ++it)
       if (it.row() != c) {
         adj[it.row()].emplace_back(int(c), -it.value());
-        wsum += std::abs(it.value());
         ++wcount;
       }
   if (wcount == 0) return out;
-  const double wfloor = 0.01 * wsum / double(wcount);
-  for (auto& a : adj)
-    for (auto& [j, w] : a) w = std::max(w, wfloor);
+  // Floor at 1% of the median magnitude (a mean would let one sliver's huge cotangent lift
+  // the floor above every other weight); NaN weights become the floor too.
+  std::vector<double> mags;
+  mags.reserve(size_t(wcount));
+  for (const auto& nb : adj)
+    for (const auto& [j, w] : nb)
+      if (std::isfinite(w)) mags.push_back(std::abs(w));
+  if (mags.empty()) return out;
+  std::nth_element(mags.begin(), mags.begin() + long(mags.size() / 2), mags.end());
+  const double wfloor = 0.01 * mags[mags.size() / 2];
+  if (!(wfloor > 0)) return out;
+  for (auto& nb : adj)
+    for (auto& [j, w] : nb)
+      if (!(w >= wfloor)) w = wfloor;
 
   // Poles: two candidates, the double sweeps of Euclidean distances and of edge-path
   // lengths; the map with fewer folded faces on the sphere is kept. Edge paths find the
@@ -214,8 +227,14 @@ LatitudeLongitudeMap latitude_longitude_map(const TriMesh& surface,
   };
   int best_folded = -1;
   for (const auto& [a, b] : {double_sweep(euclidean), double_sweep(edge_paths)}) {
-    if (out.S.rows() == n && a == out.pole_a && b == out.pole_b) continue;
-    LatitudeLongitudeMap c = map_with_poles(V, F, adj, target, a, b);
+    if (out.S.rows() == n && std::minmax(a, b) == std::minmax<Eigen::Index>(out.pole_a, out.pole_b))
+      continue;  // the same poles (either order) again
+    LatitudeLongitudeMap c;
+    try {
+      c = map_with_poles(V, F, adj, target, a, b);
+    } catch (const Error&) {  // a singular system (e.g. a surface that falls apart): no map
+      continue;
+    }
     if (c.S.rows() != n) continue;
     const int folded = int(m) - positive_origin_cones(c.S, F);
     if (best_folded < 0 || folded < best_folded) {

@@ -1,6 +1,7 @@
 // shapemap volume-map / evaluate volume: outputs of a small run, and bad input -> exit 2.
 #include "shapemap/io.h"
 #include "shapemap/maps.h"
+#include "volume/ball_test_mesh.h"
 #include "volume/volume_test_util.h"
 #include "cli/cli_run.h"
 #include <gtest/gtest.h>
@@ -68,6 +69,10 @@ TEST(VolumeMapCli, BadInputExitsWithTwo) {
   EXPECT_EQ(run("volume-map " + f.p("missing.mesh") + " " + f.p("B.vtk") + " -o " + f.p("bad") +
                 " --landmarks " + f.p("LA.txt") + " " + f.p("LB.txt")),
             2);
+  EXPECT_FALSE(fs::exists(f.dir / "bad"));
+  // --init ball needs topological balls: a cube with a cavity -> exit 2, nothing written.
+  write_volume(f.p("hollow.vtk"), testing_ball::hollow_cube(4));
+  EXPECT_EQ(run("volume-map " + f.p("A.mesh") + " " + f.p("hollow.vtk") + " -o " + f.p("bad") + " --init ball"), 2);
   EXPECT_FALSE(fs::exists(f.dir / "bad"));
 }
 
