@@ -349,7 +349,8 @@ BallParamResult ball_parameterization(const TetMesh& mesh, const BallParamOption
   const SphereParamResult sph = spherical_area_preserving_map(tb.surface, {}, opt.sphere, progress);
   res.seconds_sphere = since(t0);
   res.sphere_folded_faces = sph.folded_faces;
-  res.sphere_start = sph.start_stage;
+  // A CEM stage that took no step left the linear map: report that start as linear.
+  res.sphere_start = sph.start_stage == 0 && sph.conformal_iterations == 0 ? 1 : sph.start_stage;
   res.sphere_area_distortion_mean = sph.area_distortion_mean;
   res.sphere_area_distortion_max = sph.area_distortion_max;
 

@@ -138,7 +138,8 @@ struct BallParamResult {
   double cpu_seconds_cg = 0;        // process CPU time of the CG loop (all threads)
   bool converged = false;           // stopped by the tolerance (not MaxIter)
   int sphere_folded_faces = 0;      // folded faces of the boundary spherical map
-  int sphere_start = 0;             // its SEM start (SphereParamResult::start_stage)
+  int sphere_start = 0;             // its SEM start: 0 conformal (CEM result), 1 linear map
+                                    // (also when CEM took no step), 2 latitude-longitude
   double sphere_area_distortion_mean = 0, sphere_area_distortion_max = 0;  // its |ratio - 1|
   // Timings in seconds.
   double seconds_total = 0, seconds_sphere = 0, seconds_vsem = 0, seconds_factor = 0;
