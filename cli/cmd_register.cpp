@@ -3,7 +3,7 @@
 // .txt, Sec. 7). Writes map_AB.txt (vertex of A -> tet of B + barycentric), A_on_B.vtk (A's
 // connectivity at phi(v)), the reverse map_BA.txt / B_on_A.vtk (psi = f_A^{-1} h^{-1} f_B),
 // report.json (ball metrics of both, rotations, d(phi), volume-map metrics per direction)
-// and, with --frames K, frames/frame_XXX.vtk of the linear homotopy (Eq. 46).
+// and, with --frames K, frames/frame_000.vtk ... frame_<K-1>.vtk of the linear homotopy (Eq. 46).
 #include "ball_common.h"
 #include "figures.h"
 #include "shapemap/eval/volume_metrics.h"

@@ -560,15 +560,20 @@ SphereParamResult spherical_area_preserving_map(const TriMesh& surface,
       cand.push_back({&linear_stage, 1, 1.0});
       if (opt.stretch_fold_allowance < 1) cand.push_back({&linear_stage, 1, opt.stretch_fold_allowance});
     }
-    for (size_t k = 0; k < cand.size(); ++k) {
+    // Steps 3-4 from a start; kept when it is the first or has fewer folded faces, then a
+    // lower E_A.
+    bool first = true;
+    auto run_candidate = [&](const Stage& start, int start_id, double allowance) {
       SphereParamResult r;
-      stretch_and_refine(*cand[k].start, cand[k].allowance, r);
-      r.start_stage = cand[k].start_id;
-      r.stretch_damped = cand[k].allowance < 1;
-      if (k == 0 || r.folded_faces < res.folded_faces ||
+      stretch_and_refine(start, allowance, r);
+      r.start_stage = start_id;
+      r.stretch_damped = allowance < 1;
+      if (first || r.folded_faces < res.folded_faces ||
           (r.folded_faces == res.folded_faces && r.authalic_energy < res.authalic_energy))
         res = std::move(r);
-    }
+      first = false;
+    };
+    for (const Candidate& c : cand) run_candidate(*c.start, c.start_id, c.allowance);
     // Latitude-longitude start when the conformal starts leave folded faces and a face with
     // more than latitude_start_distortion times its area share off (the signature of a part
     // collapsed by the conformal factor); the same selection.
@@ -583,16 +588,8 @@ SphereParamResult spherical_area_preserving_map(const TriMesh& surface,
         ll.S = inverse_stereographic(ll.uv);
         ll.E = energy_minus_area(Lc, ll.S, F);
         ll.folded = spherical_folded_faces(ll.S, F);
-        for (double allowance : {1.0, opt.stretch_fold_allowance}) {
-          SphereParamResult r;
-          stretch_and_refine(ll, allowance, r);
-          r.start_stage = 2;
-          r.stretch_damped = allowance < 1;
-          if (r.folded_faces < res.folded_faces ||
-              (r.folded_faces == res.folded_faces && r.authalic_energy < res.authalic_energy))
-            res = std::move(r);
-          if (allowance >= 1 && opt.stretch_fold_allowance >= 1) break;
-        }
+        run_candidate(ll, 2, 1.0);
+        if (opt.stretch_fold_allowance < 1) run_candidate(ll, 2, opt.stretch_fold_allowance);
       }
     }
     res.conformal_iterations = cem_iterations;
