@@ -22,7 +22,7 @@ struct TetArgs {
   std::string input, output;
   double edge_length = 0;
   int tets = 0;
-  bool no_optimize = false, no_features = false, split_chords = false;
+  bool no_optimize = false, no_odt = false, no_features = false, split_chords = false;
   double radius_edge = 3.0;
 };
 
@@ -42,6 +42,7 @@ int run_tetrahedralize(const TetArgs& a, const GlobalOptions& g) {
   opt.edge_length = a.edge_length;
   opt.target_tets = a.tets;
   opt.optimize = !a.no_optimize;
+  opt.odt = !a.no_odt;
   opt.faithful_boundary = !a.no_features;
   opt.radius_edge_ratio = a.radius_edge;
   opt.seed = unsigned(g.seed);
@@ -77,7 +78,8 @@ Command register_tetrahedralize(CLI::App& app, GlobalOptions& g) {
   auto* nt = c.app->add_option("--tets", a->tets, "Approximate number of tets (default 30000)")
                  ->check(CLI::PositiveNumber);
   el->excludes(nt);
-  c.app->add_flag("--no-optimize", a->no_optimize, "Skip sliver perturbation and exudation");
+  c.app->add_flag("--no-optimize", a->no_optimize, "Skip ODT smoothing, sliver perturbation and exudation");
+  c.app->add_flag("--no-odt", a->no_odt, "Skip ODT smoothing (keep perturbation and exudation)");
   c.app->add_flag("--no-features", a->no_features, "Do not protect sharp creases of the input");
   c.app->add_flag("--split-chords", a->split_chords,
                   "Split interior edges that join two boundary vertices (for ball maps; docs/methods.md)");

@@ -47,6 +47,9 @@ TetMesh tetrahedralize_input(const TriMesh& surface, const TetrahedralizeOptions
   if (!ti.creases_dropped.empty() && !quiet)
     std::cerr << path << ": note: sharp creases not protected (CGAL's crease protection failed: "
               << ti.creases_dropped << "); meshed without them\n";
+  if (!ti.odt_dropped.empty() && !quiet)
+    std::cerr << path << ": note: the ODT-smoothed mesh was not valid (" << ti.odt_dropped
+              << "); meshed without ODT smoothing\n";
   return m;
 }
 

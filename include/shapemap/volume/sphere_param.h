@@ -19,8 +19,9 @@
 // Riemannian refinement below (4.) polishes E_A without creating folds.
 // Steps 3-4 run for several candidates (published SEM and a damped SEM, each from the CEM
 // result and from the linear map when CEM changed it; see stretch_fold_allowance and
-// try_linear_start) and the result with the fewest folded faces, then the lowest E_A, is
-// kept: on coarse creatures the undamped SEM fixed point folds hundreds of faces.
+// try_linear_start) and the result that has not collapsed a part (latitude_start_distortion),
+// then with the fewest folded faces, then the lowest E_A, is kept: on coarse creatures the
+// undamped SEM fixed point folds hundreds of faces.
 #pragma once
 #include "shapemap/mesh.h"
 #include "shapemap/progress.h"
@@ -44,13 +45,14 @@ struct SphereParamOptions {
   // Also run SEM + refinement from the linear map (skipping CEM) when CEM changed it
   // (CEM can compress thin parts further); selection as above.
   bool try_linear_start = true;
-  // When the result of the starts above has folded faces and its max area distortion
-  // |share ratio - 1| exceeds this: also run SEM + refinement from the latitude-longitude
-  // map of Brechbuehler, Gerig, Kuebler 1995 (harmonic latitude between two far-apart
-  // poles, harmonic longitude with a date line, polar angle by area), which does not shrink
-  // long thin parts exponentially as the conformal starts do; selection as above. Not run
-  // on every folded result: on shrec07-61 (1 folded face, distortion 2.9) it wins the
-  // selection but the ball map gets worse (mean D_V 0.062 -> 0.080). 0 = off.
+  // A result whose max area distortion |share ratio - 1| exceeds this has collapsed a part:
+  // it loses the selection to any result that has not (whatever their folded faces), and
+  // SEM + refinement are also run from the latitude-longitude map of Brechbuehler, Gerig,
+  // Kuebler 1995 (harmonic latitude between two far-apart poles, harmonic longitude with a
+  // date line, polar angle by area), which does not shrink long thin parts exponentially
+  // as the conformal starts do. Not run on every folded result: on shrec07-61 (1 folded
+  // face, distortion 2.9) it wins the selection but the ball map gets worse (mean D_V
+  // 0.062 -> 0.080). 0 = off (selection by folded faces, then E_A, only).
   double latitude_start_distortion = 10;
   // 4. Riemannian refinement of the authalic energy E_A (Sutti & Yueh 2024, "Riemannian
   // gradient descent methods for spherical area-preserving mappings"): projected-gradient

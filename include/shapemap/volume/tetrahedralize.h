@@ -11,9 +11,10 @@ struct TetrahedralizeOptions {
   int target_tets = 0;         // approximate tet count (0: use edge_length or ~30k)
   double radius_edge_ratio = 3.0;  // Mesh_3 cell criterion (issue: <= 3)
   bool faithful_boundary = true;   // protect and keep the input surface (polyhedral domain)
-  bool optimize = true;            // ODT/perturbation/exudation to remove slivers
+  bool optimize = true;            // ODT (when odt), perturbation, exudation
   unsigned seed = 0;
-  bool odt = false;                // also CGAL ODT smoothing before perturb/exude (slower)
+  bool odt = true;                 // CGAL ODT smoothing before perturb/exude (~2 s per 30k
+                                   // tets; lowers ball-map distortion, docs/methods.md)
   double sliver_bound = 10;        // perturb/exude target: smallest dihedral angle (degrees)
   double optimize_time_limit = 0;  // seconds per sliver step; 0 = none (keeps runs deterministic)
   double crease_time_limit = 60;   // seconds for the crease-protected meshing before it is
@@ -25,6 +26,9 @@ struct TetrahedralizeInfo {
   bool creases_protected = false;  // creases found and kept as protected 1D features
   std::string creases_dropped;     // non-empty: CGAL's crease protection failed (its check,
                                    // quoted); the surface was meshed without it
+  bool odt_smoothed = false;       // the result is ODT-smoothed
+  std::string odt_dropped;         // non-empty: the ODT-smoothed mesh failed check_volume
+                                   // (its first problem); the result is meshed without ODT
 };
 
 // V, F: closed, manifold, consistently oriented surface. Throws InputError if not.
