@@ -171,15 +171,21 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
         require_valid_volume(*M, path + " (--init ball)", 0.0);
         require_ball_topology(*M, path + " (--init ball)");
       }
-      RegisterResult rr = register_through_ball(A, B, {}, progress, a->A, a->B);
-      i12 = std::move(rr.map_AB);
-      i21 = std::move(rr.map_BA);
-      char d[64];
-      std::snprintf(d, sizeof d, "%.4g", rr.d_phi_relative);
-      init_detail = std::string("ball (registration through the ball, d(phi) ") + d + " of A's bbox diagonal)";
+      // The ball maps run on copies with their boundary chords split (a tet with four
+      // boundary vertices is squeezed flat by any ball map; docs/methods.md, "Boundary
+      // chords"). Splitting only appends vertices and subdivides tets, so the images of the
+      // user's vertices are the first rows, located again in the user's tets.
+      TetMesh As = A, Bs = B;
+      const int chords = split_boundary_chords(As) + split_boundary_chords(Bs);
+      RegisterResult rr = register_through_ball(As, Bs, {}, progress, a->A, a->B);
+      i12 = locate_in_tets(B, rr.A_on_B.topRows(A.num_vertices()));
+      i21 = locate_in_tets(A, rr.B_on_A.topRows(B.num_vertices()));
+      char d[96];
+      std::snprintf(d, sizeof d, "%.4g of A's bbox diagonal; %d boundary chords split", rr.d_phi_relative, chords);
+      init_detail = std::string("ball (registration through the ball, d(phi) ") + d + ")";
       // A poor ball map makes a poor start: say so, as `register` does.
-      for (const auto& [w, M, br] : {std::tuple{std::string("volume-map --init ball: A"), &A, &rr.ball_A},
-                                     std::tuple{std::string("volume-map --init ball: B"), &B, &rr.ball_B}})
+      for (const auto& [w, M, br] : {std::tuple{std::string("volume-map --init ball: A"), &As, &rr.ball_A},
+                                     std::tuple{std::string("volume-map --init ball: B"), &Bs, &rr.ball_B}})
         if (const std::string msg = ball_quality_warning(w, ball_metrics(*M, br->f), *br); !msg.empty())
           info(g, msg);
     } else {
