@@ -142,6 +142,11 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
       throw InputError("--init landmarks: needs --landmarks LA LB");
     if (init == "surface-map" && a->surface_map.size() != 2)
       throw InputError("--init surface-map: needs --surface-map MAP_AB MAP_BA");
+    // Inputs of another initialization are an error, not silently ignored.
+    if (!a->landmarks.empty() && init != "landmarks")
+      throw InputError("--init " + init + ": --landmarks is only used by --init landmarks");
+    if ((!a->surface_map.empty() || !a->surface_map_meshes.empty()) && init != "surface-map")
+      throw InputError("--init " + init + ": --surface-map/--surface-map-meshes are only used by --init surface-map");
 
     timer.start("load");
     VolumeInput inA = load_volume_input(a->A, "A", a->tets, progress, g);

@@ -67,6 +67,12 @@ TEST(VolumeMapCli, BadInputExitsWithTwo) {
   EXPECT_EQ(run(AB + " --landmarks " + f.p("LA.txt") + " " + f.p("LB_short.txt")), 2);
   EXPECT_EQ(run(AB + " --landmarks " + f.p("LA.txt") + " " + f.p("LB_bad.txt")), 2);
   EXPECT_EQ(run(AB + " --init landmarks"), 2);
+  // Inputs of another initialization: an error, not silently ignored.
+  EXPECT_EQ(run(AB + " --init ball --landmarks " + f.p("LA.txt") + " " + f.p("LB.txt")), 2);
+  EXPECT_EQ(run(AB + " --init auto --surface-map " + f.p("LA.txt") + " " + f.p("LB.txt")), 2);
+  EXPECT_EQ(run(AB + " --landmarks " + f.p("LA.txt") + " " + f.p("LB.txt") + " --surface-map " + f.p("LA.txt") +
+                " " + f.p("LB.txt")),
+            2);
   EXPECT_EQ(run("volume-map " + f.p("missing.mesh") + " " + f.p("B.vtk") + " -o " + f.p("bad") +
                 " --landmarks " + f.p("LA.txt") + " " + f.p("LB.txt")),
             2);
