@@ -73,6 +73,9 @@ inline std::string ball_quality_warning(const std::string& what, const BallMetri
   if (r.sphere_folded_faces > 0)
     s += "; the spherical boundary map already folded " + std::to_string(r.sphere_folded_faces) +
          " faces (a shape with long thin parts; docs/methods.md)";
+  if (r.fold_retry)
+    s += std::string("; rerun with the boundary barrier: ") + (r.fold_retry_kept ? "kept" : "not better, first run kept") +
+         " (first run: " + std::to_string(r.inverted_before_retry) + " inverted tets)";
   return s;
 }
 
@@ -119,6 +122,8 @@ inline nlohmann::json ball_result_json(const BallParamResult& r) {
   j["flipped_boundary_faces_after_cg"] = r.flipped_boundary_faces_cg;
   j["flipped_boundary_faces_final"] = r.flipped_boundary_faces_final;
   j["preconditioner_refreshes"] = r.preconditioner_refreshes;
+  j["fold_retry"] = {{"ran", r.fold_retry}, {"kept", r.fold_retry_kept},
+                     {"inverted_tets_before", r.inverted_before_retry}};
   j["sphere_map_area_distortion"] = {{"mean", r.sphere_area_distortion_mean},
                                      {"max", r.sphere_area_distortion_max}};
   j["seconds"] = {{"total", r.seconds_total},      {"sphere_map", r.seconds_sphere},
@@ -145,6 +150,11 @@ inline void add_ball_options(CLI::App* app, BallParamOptions& o) {
                   "Weight of the boundary-layer barrier added to E_I during CG (0: the paper's "
                   "plain E_I; see docs/methods.md)")
       ->check(non_negative());
+  app->add_option("--fold-retry-barrier", o.fold_retry_barrier,
+                  "When inverted tets remain, run again with this boundary barrier and keep the "
+                  "result with fewer (0: off; docs/methods.md)")
+      ->check(non_negative())
+      ->capture_default_str();
   app->add_flag("--prevent-new-folds", o.prevent_new_folds,
                 "Halve CG steps that would increase the number of inverted tets");
 }

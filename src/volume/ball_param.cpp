@@ -323,8 +323,10 @@ Eigen::Matrix3d pole_avoiding_frame(const Eigen::MatrixXd& Y, const Eigen::Matri
 }
 
 // ------------------------------------------------------------ Algorithm 1
-BallParamResult ball_parameterization(const TetMesh& mesh, const BallParamOptions& opt,
-                                      const ProgressCallback& progress, const std::string& name) {
+namespace {
+
+BallParamResult ball_parameterization_once(const TetMesh& mesh, const BallParamOptions& opt,
+                                           const ProgressCallback& progress, const std::string& name) {
   const auto t_start = Clock::now();
   require_valid_volume(mesh, name, 0.0);
   require_ball_topology(mesh, name);
@@ -712,6 +714,29 @@ BallParamResult ball_parameterization(const TetMesh& mesh, const BallParamOption
   for (int i = 0; i < n; ++i) res.f.row(i) = f.row(perm(i));
   report(progress, "ball/cg", 1.0);
   res.seconds_total = since(t_start);
+  return res;
+}
+
+}  // namespace
+
+BallParamResult ball_parameterization(const TetMesh& mesh, const BallParamOptions& opt,
+                                      const ProgressCallback& progress, const std::string& name) {
+  BallParamResult res = ball_parameterization_once(mesh, opt, progress, name);
+  if (res.inverted_final == 0 || opt.boundary_barrier > 0 || !(opt.fold_retry_barrier > 0)) return res;
+  // Inverted tets left after the post-step: the boundary layer of thin parts folded over
+  // during CG. Run again with the boundary-layer barrier, which keeps it from folding.
+  BallParamOptions retry = opt;
+  retry.boundary_barrier = opt.fold_retry_barrier;
+  BallParamResult r2 = ball_parameterization_once(mesh, retry, progress, name);
+  const bool better = r2.inverted_final < res.inverted_final ||
+                      (r2.inverted_final == res.inverted_final && r2.energy_final < res.energy_final);
+  const int before = res.inverted_final;
+  const double seconds = res.seconds_total + r2.seconds_total;
+  if (better) res = std::move(r2);
+  res.fold_retry = true;
+  res.fold_retry_kept = better;
+  res.inverted_before_retry = before;
+  res.seconds_total = seconds;
   return res;
 }
 
