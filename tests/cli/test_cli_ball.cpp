@@ -55,6 +55,8 @@ TEST(CliBall, BallRegisterEvaluateAndBadInput) {
   EXPECT_LE(j["metrics"]["boundary_sphere_error"].get<double>(), 1e-9);
   EXPECT_LE(j["optimization"]["E_I_final"].get<double>(), j["optimization"]["E_I_after_vsem"].get<double>());
   for (const char* k : {"mean", "sd", "p25", "p50", "p75", "p95"}) EXPECT_TRUE(j["metrics"]["D_V"].contains(k));
+  // No inverted tets after the first run: the fold retry did not run.
+  EXPECT_FALSE(j["optimization"]["fold_retry"]["ran"].get<bool>());
   const TetMesh ball = read_volume((out / "ball.vtk").string());
   EXPECT_LE(ball.V.rowwise().norm().maxCoeff(), 1.0 + 1e-6);
 
