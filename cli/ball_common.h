@@ -65,7 +65,11 @@ inline BallInput load_ball_input(const std::string& path, int tets, bool split_c
 // with the likely cause when the spherical boundary map already folded; "" otherwise.
 inline std::string ball_quality_warning(const std::string& what, const BallMetrics& m,
                                         const BallParamResult& r) {
-  if (m.folded_tets == 0 && !(m.dv_mean > 0.2)) return "";
+  if (m.folded_tets == 0 && !(m.dv_mean > 0.2)) {
+    if (!r.fold_retry) return "";
+    return what + ": note: " + std::to_string(r.inverted_before_retry) +
+           " inverted tets were left; the rerun with the boundary barrier (docs/methods.md, \"Fold retry\") removed them";
+  }
   char line[512];
   std::snprintf(line, sizeof line, "%s: warning: the ball map is not bijective or not volume-preserving: %d folded tets (%.2f%%), mean D_V %.3g",
                 what.c_str(), m.folded_tets, 100.0 * m.folded_tets / std::max(1, m.num_tets), m.dv_mean);
@@ -122,8 +126,10 @@ inline nlohmann::json ball_result_json(const BallParamResult& r) {
   j["flipped_boundary_faces_after_cg"] = r.flipped_boundary_faces_cg;
   j["flipped_boundary_faces_final"] = r.flipped_boundary_faces_final;
   j["preconditioner_refreshes"] = r.preconditioner_refreshes;
-  j["fold_retry"] = {{"ran", r.fold_retry}, {"kept", r.fold_retry_kept},
-                     {"inverted_tets_before", r.inverted_before_retry}};
+  j["fold_retry"] = {{"ran", r.fold_retry},
+                     {"kept", r.fold_retry_kept},
+                     {"inverted_tets_before", r.inverted_before_retry},
+                     {"seconds", r.seconds_retry}};
   j["sphere_map_area_distortion"] = {{"mean", r.sphere_area_distortion_mean},
                                      {"max", r.sphere_area_distortion_max}};
   j["seconds"] = {{"total", r.seconds_total},      {"sphere_map", r.seconds_sphere},

@@ -54,6 +54,7 @@ Command register_ball(CLI::App& app, GlobalOptions& g) {
                        {"vsem_iterations", a->opt.vsem_iterations},
                        {"anisotropic_scaling", a->opt.anisotropic_scaling},
                        {"boundary_barrier", a->opt.boundary_barrier},
+                       {"fold_retry_barrier", a->opt.fold_retry_barrier},
                        {"prevent_new_folds", a->opt.prevent_new_folds}};
     j["metrics"] = ball_metrics_json(m);
     j["metrics_after_vsem"] = ball_metrics_json(mv);

@@ -138,15 +138,16 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
     OutputDir out(a->out);
     std::string init = a->init;
     if (init.empty()) init = !a->landmarks.empty() ? "landmarks" : !a->surface_map.empty() ? "surface-map" : "auto";
+    const std::string init_name = "--init " + init + (a->init.empty() ? " (the default)" : "");
     if (init == "landmarks" && a->landmarks.size() != 2)
       throw InputError("--init landmarks: needs --landmarks LA LB");
     if (init == "surface-map" && a->surface_map.size() != 2)
       throw InputError("--init surface-map: needs --surface-map MAP_AB MAP_BA");
     // Inputs of another initialization are an error, not silently ignored.
     if (!a->landmarks.empty() && init != "landmarks")
-      throw InputError("--init " + init + ": --landmarks is only used by --init landmarks");
+      throw InputError(init_name + ": --landmarks is only used by --init landmarks");
     if ((!a->surface_map.empty() || !a->surface_map_meshes.empty()) && init != "surface-map")
-      throw InputError("--init " + init + ": --surface-map/--surface-map-meshes are only used by --init surface-map");
+      throw InputError(init_name + ": --surface-map/--surface-map-meshes are only used by --init surface-map");
 
     timer.start("load");
     VolumeInput inA = load_volume_input(a->A, "A", a->tets, progress, g);
@@ -183,10 +184,15 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
       TetMesh As = A, Bs = B;
       const int chords = split_boundary_chords(As) + split_boundary_chords(Bs);
       RegisterResult rr = register_through_ball(As, Bs, {}, progress, a->A, a->B);
-      i12 = locate_in_tets(B, rr.A_on_B.topRows(A.num_vertices()));
+      const Eigen::MatrixXd phi = rr.A_on_B.topRows(A.num_vertices());
+      i12 = locate_in_tets(B, phi);
       i21 = locate_in_tets(A, rr.B_on_A.topRows(B.num_vertices()));
+      // d(phi) (Sec. 7) over the user's A (rr.d_phi is over the split copy).
+      const Eigen::VectorXd w = vertex_volumes(A.V, A.T);
+      const double d_phi = w.dot((A.V - phi).rowwise().norm()) / w.sum();
       char d[96];
-      std::snprintf(d, sizeof d, "%.4g of A's bbox diagonal; %d boundary chords split", rr.d_phi_relative, chords);
+      std::snprintf(d, sizeof d, "%.4g of A's bbox diagonal; %d boundary chords split", d_phi / bbox_diagonal(A.V),
+                    chords);
       init_detail = std::string("ball (registration through the ball, d(phi) ") + d + ")";
       // A poor ball map makes a poor start: say so, as `register` does.
       for (const auto& [w, M, br] : {std::tuple{std::string("volume-map --init ball: A"), &As, &rr.ball_A},

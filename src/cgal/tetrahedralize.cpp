@@ -285,17 +285,25 @@ TetMesh tetrahedralize(const TriMesh& surface, const TetrahedralizeOptions& opt,
   TetMesh out = mesh_once(surface, opt, progress, info);
   if (!(opt.optimize && opt.odt)) return out;
   // ODT moves vertices after refinement, where Mesh_3's manifold criterion no longer holds:
-  // on shrec07-302.off it left a non-manifold edge on the boundary. Such a mesh is made
-  // again without ODT (deterministic: the same input gives the same choice).
+  // on shrec07-302.off it left a non-manifold edge on the boundary. A mesh with such defects
+  // (the ones ODT can cause) is made again without ODT, and the plain mesh is used when it
+  // has fewer of them (deterministic: the same input gives the same choice).
+  auto defects = [](const MeshReport& r) {
+    return r.non_manifold_edges + r.non_manifold_vertices + r.degenerate_elements + r.inverted_elements;
+  };
   const MeshReport rep = check_volume(out);
-  if (rep.ok()) {
-    if (info) info->odt_smoothed = true;
-    return out;
+  if (defects(rep) > 0) {
+    TetrahedralizeInfo plain_info;
+    TetrahedralizeOptions plain = opt;
+    plain.odt = false;
+    TetMesh alt = mesh_once(surface, plain, progress, &plain_info);
+    if (defects(check_volume(alt)) < defects(rep)) {
+      plain_info.odt_dropped = rep.problems.front();
+      if (info) *info = plain_info;
+      return alt;
+    }
   }
-  TetrahedralizeOptions plain = opt;
-  plain.odt = false;
-  out = mesh_once(surface, plain, progress, info);
-  if (info) info->odt_dropped = rep.problems.front();
+  if (info) info->odt_smoothed = true;
   return out;
 }
 

@@ -325,8 +325,11 @@ Eigen::Matrix3d pole_avoiding_frame(const Eigen::MatrixXd& Y, const Eigen::Matri
 // ------------------------------------------------------------ Algorithm 1
 namespace {
 
+// start: a previous run on the same mesh whose boundary map and VSEM result are reused
+// (steps 6-13 do not depend on the CG options), or null.
 BallParamResult ball_parameterization_once(const TetMesh& mesh, const BallParamOptions& opt,
-                                           const ProgressCallback& progress, const std::string& name) {
+                                           const ProgressCallback& progress, const std::string& name,
+                                           const BallParamResult* start) {
   const auto t_start = Clock::now();
   require_valid_volume(mesh, name, 0.0);
   require_ball_topology(mesh, name);
@@ -348,20 +351,28 @@ BallParamResult ball_parameterization_once(const TetMesh& mesh, const BallParamO
   const int nB = int(tb.to_volume.size());
   res.boundary = tb.to_volume;
   auto t0 = Clock::now();
-  const SphereParamResult sph = spherical_area_preserving_map(tb.surface, {}, opt.sphere, progress);
-  res.seconds_sphere = since(t0);
-  res.sphere_folded_faces = sph.folded_faces;
-  // A CEM stage that took no step left the linear map: report that start as linear.
-  res.sphere_start = sph.start_stage == 0 && sph.conformal_iterations == 0 ? 1 : sph.start_stage;
-  res.sphere_area_distortion_mean = sph.area_distortion_mean;
-  res.sphere_area_distortion_max = sph.area_distortion_max;
+  if (start) {
+    res.sphere_folded_faces = start->sphere_folded_faces;
+    res.sphere_start = start->sphere_start;
+    res.sphere_area_distortion_mean = start->sphere_area_distortion_mean;
+    res.sphere_area_distortion_max = start->sphere_area_distortion_max;
+    res.f_vsem = start->f_vsem;
+  } else {
+    const SphereParamResult sph = spherical_area_preserving_map(tb.surface, {}, opt.sphere, progress);
+    res.seconds_sphere = since(t0);
+    res.sphere_folded_faces = sph.folded_faces;
+    // A CEM stage that took no step left the linear map: report that start as linear.
+    res.sphere_start = sph.start_stage == 0 && sph.conformal_iterations == 0 ? 1 : sph.start_stage;
+    res.sphere_area_distortion_mean = sph.area_distortion_mean;
+    res.sphere_area_distortion_max = sph.area_distortion_max;
 
-  // Steps 7-13: VSEM fixed point.
-  VsemOptions vo;
-  vo.iterations = opt.vsem_iterations;
-  const VsemResult vs = vsem_fixed_point(V, mesh.T, tb.to_volume, sph.S, vo, progress);
-  res.seconds_vsem = vs.seconds;
-  res.f_vsem = vs.f;
+    // Steps 7-13: VSEM fixed point.
+    VsemOptions vo;
+    vo.iterations = opt.vsem_iterations;
+    const VsemResult vs = vsem_fixed_point(V, mesh.T, tb.to_volume, sph.S, vo, progress);
+    res.seconds_vsem = vs.seconds;
+    res.f_vsem = vs.f;
+  }
 
   // Permuted numbering: interior first.
   std::vector<char> isb(n, 0);
@@ -374,7 +385,7 @@ BallParamResult ball_parameterization_once(const TetMesh& mesh, const BallParamO
   Eigen::MatrixXd Vp(n, 3), fp(n, 3);
   for (int i = 0; i < n; ++i) {
     Vp.row(perm(i)) = V.row(i);
-    fp.row(perm(i)) = vs.f.row(i);
+    fp.row(perm(i)) = res.f_vsem.row(i);
   }
   const IsovolumetricEnergy energy(Vp, Tp);
   Eigen::VectorXi interior(nI), boundary(nB);
@@ -721,21 +732,32 @@ BallParamResult ball_parameterization_once(const TetMesh& mesh, const BallParamO
 
 BallParamResult ball_parameterization(const TetMesh& mesh, const BallParamOptions& opt,
                                       const ProgressCallback& progress, const std::string& name) {
-  BallParamResult res = ball_parameterization_once(mesh, opt, progress, name);
+  BallParamResult res = ball_parameterization_once(mesh, opt, progress, name, nullptr);
   if (res.inverted_final == 0 || opt.boundary_barrier > 0 || !(opt.fold_retry_barrier > 0)) return res;
   // Inverted tets left after the post-step: the boundary layer of thin parts folded over
-  // during CG. Run again with the boundary-layer barrier, which keeps it from folding.
+  // during CG. CG again from the same VSEM start with the boundary-layer barrier, which
+  // keeps that layer from folding.
   BallParamOptions retry = opt;
   retry.boundary_barrier = opt.fold_retry_barrier;
-  BallParamResult r2 = ball_parameterization_once(mesh, retry, progress, name);
+  BallParamResult r2;
+  try {
+    r2 = ball_parameterization_once(mesh, retry, progress, name, &res);
+  } catch (const Error&) {
+    return res;  // the first run stands
+  }
   const bool better = r2.inverted_final < res.inverted_final ||
                       (r2.inverted_final == res.inverted_final && r2.energy_final < res.energy_final);
   const int before = res.inverted_final;
-  const double seconds = res.seconds_total + r2.seconds_total;
-  if (better) res = std::move(r2);
+  const double retry_seconds = r2.seconds_total, seconds = res.seconds_total + retry_seconds;
+  if (better) {
+    r2.seconds_sphere = res.seconds_sphere;  // the kept map's boundary map and VSEM are the first run's
+    r2.seconds_vsem = res.seconds_vsem;
+    res = std::move(r2);
+  }
   res.fold_retry = true;
   res.fold_retry_kept = better;
   res.inverted_before_retry = before;
+  res.seconds_retry = retry_seconds;
   res.seconds_total = seconds;
   return res;
 }

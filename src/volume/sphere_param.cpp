@@ -547,8 +547,9 @@ SphereParamResult spherical_area_preserving_map(const TriMesh& surface,
     const double cem_energy = res.conformal_energy;
     // Candidates: SEM as published (undamped) and damped (see SphereParamOptions), each
     // from the CEM result and, when CEM changed the map, from the linear map (the conformal
-    // steps can compress thin parts further). The result with the fewest folded faces, then
-    // the lowest E_A, is kept; the published path alone is the first candidate.
+    // steps can compress thin parts further). Selection (run_candidate): a result that has
+    // not collapsed a part, then the fewest folded faces, then the lowest E_A; the published
+    // path alone is the first candidate.
     struct Candidate {
       const Stage* start;
       int start_id;

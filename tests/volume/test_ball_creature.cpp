@@ -25,6 +25,7 @@ TEST(BallParamCreature, SmallCreatureNoFoldsLowDistortion) {
   const BallMetrics bv = ball_metrics(m, r.f_vsem);
   std::printf("creature: %d vertices %d tets, E_I %.4g -> %.4g, mean D_V %.4g -> %.4g, folded %d -> %d (cg %d)\n", m.num_vertices(), m.num_tets(), r.energy_vsem, r.energy_final, bv.dv_mean, bm.dv_mean, bv.folded_tets, bm.folded_tets, r.inverted_cg);
   EXPECT_EQ(bm.folded_tets, 0);
+  EXPECT_FALSE(r.fold_retry);  // the post-step alone removes the folds on this seed
   // Measured (Release, this seed, ODT-smoothed tets): 1745 vertices, 7039 tets, E_I 0.517
   // -> 0.018, mean D_V 0.246 -> 0.0435, folded 87 -> 0 (2 after CG, removed by the
   // untangling post-step). Without ODT (7328 tets): mean D_V 0.056, so this threshold also
@@ -45,6 +46,7 @@ TEST(BallParamCreature, BoundaryBarrierRemovesOverlap) {
   to.target_tets = 8000;
   const TetMesh m = tetrahedralize(s, to);
   BallParamOptions plain, barrier;
+  plain.fold_retry_barrier = 0;  // the paper's E_I throughout, whatever the folds
   barrier.boundary_barrier = 0.01;
   const BallParamResult a = ball_parameterization(m, plain), b = ball_parameterization(m, barrier);
   const BallMetrics ma = ball_metrics(m, a.f), mb = ball_metrics(m, b.f);
@@ -80,6 +82,10 @@ TEST(BallParamCreature, FoldRetryRemovesTheLastInvertedTet) {
   EXPECT_TRUE(b.fold_retry);
   EXPECT_TRUE(b.fold_retry_kept);
   EXPECT_EQ(b.inverted_before_retry, a.inverted_final);
+  EXPECT_GT(b.seconds_retry, 0.0);
+  // The retry starts from the first run's VSEM result (same boundary map).
+  EXPECT_EQ((b.f_vsem - a.f_vsem).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_EQ(b.sphere_start, a.sphere_start);
   EXPECT_EQ(b.inverted_final, 0);
   EXPECT_EQ(mb.folded_tets, 0);
   EXPECT_LT(mb.dv_mean, 0.1);
