@@ -45,6 +45,7 @@ void require_element_indices(const Eigen::MatrixXi& E, Eigen::Index n, int cols,
 
 // Area-weighted and volume-weighted helpers used for normalization.
 double surface_area(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F);
+double bbox_diagonal(const Eigen::MatrixXd& V);                               // 0 for no rows
 double signed_volume(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T);     // sum of tet volumes
 double enclosed_volume(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F);   // of a closed surface
 Eigen::VectorXd triangle_areas(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F);

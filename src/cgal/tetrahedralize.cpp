@@ -65,7 +65,7 @@ SurfaceMesh to_surface_mesh(const TriMesh& m, const std::string& name) {
 void insert_initial_points(C3t3& c3t3, const Domain& domain, const TriMesh& m, int count,
                            double min_separation) {
   Eigen::MatrixXd N = vertex_normals(m.V, m.F);
-  double diag = (m.V.colwise().maxCoeff() - m.V.colwise().minCoeff()).norm();
+  const double diag = bbox_diagonal(m.V);
   double eps = 1e-4 * diag;
   auto intersect = domain.construct_intersection_object();
   auto cwp = c3t3.triangulation().geom_traits().construct_weighted_point_3_object();
@@ -89,10 +89,6 @@ void insert_initial_points(C3t3& c3t3, const Domain& domain, const TriMesh& m, i
       kept.push_back(p);
     }
   }
-}
-
-double bbox_diagonal(const Eigen::MatrixXd& V) {
-  return (V.colwise().maxCoeff() - V.colwise().minCoeff()).norm();
 }
 
 Eigen::Vector3d to_eigen(const Point& p) { return {p.x(), p.y(), p.z()}; }

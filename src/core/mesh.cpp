@@ -18,6 +18,11 @@ Eigen::VectorXd triangle_areas(const Eigen::MatrixXd& V, const Eigen::MatrixXi& 
   return A;
 }
 
+double bbox_diagonal(const Eigen::MatrixXd& V) {
+  if (V.rows() == 0) return 0;
+  return (V.colwise().maxCoeff() - V.colwise().minCoeff()).norm();
+}
+
 double surface_area(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
   return triangle_areas(V, F).sum();
 }

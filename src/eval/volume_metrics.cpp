@@ -10,11 +10,6 @@
 
 namespace shapemap {
 
-double bbox_diagonal(const Eigen::MatrixXd& V) {
-  if (V.rows() == 0) return 0;
-  return (V.colwise().maxCoeff() - V.colwise().minCoeff()).norm();
-}
-
 VolumeMapMetrics volume_map_metrics(const TetMesh& source, const TetMesh& target,
                                     const Eigen::MatrixXd& X, const BarycentricMap* P_ij,
                                     const Eigen::MatrixXd* X_ji, const Eigen::MatrixXd* truth) {

@@ -130,7 +130,7 @@ Image render_landmarks(const TriMesh& mesh, const std::vector<int>& landmarks, c
   Rasterizer r(opt.render, cam);
   r.draw(mesh.V, mesh.F, Eigen::MatrixXd(mesh.V.rows(), 0), [](const double*, int) { return kGrey; },
          opt.wireframe);
-  double diag = (mesh.V.colwise().maxCoeff() - mesh.V.colwise().minCoeff()).norm();
+  const double diag = bbox_diagonal(mesh.V);
   TriMesh ball = make_sphere(160, 0.02 * diag);
   for (size_t l = 0; l < landmarks.size(); ++l) {
     int v = landmarks[l];

@@ -1,7 +1,7 @@
 // Registration through the ball (isovolumetric-ball-parameterization.txt, Sec. 7).
 #include "shapemap/volume/register.h"
 #include "shapemap/error.h"
-#include "shapemap/geometry/closest_point.h"
+#include "shapemap/volume/symmetric_map.h"
 #include <Eigen/LU>
 #include <Eigen/SVD>
 #include <chrono>
@@ -17,19 +17,11 @@ double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::
 // target. Returns how many points lay outside the polyhedral ball (snapped to the closest tet).
 int compose_through_ball(const Eigen::MatrixXd& P, const Eigen::MatrixXd& f_target,
                          const TetMesh& target, BarycentricMap& map, Eigen::MatrixXd& positions) {
-  TetLocator loc(f_target, target.T);
-  const std::vector<ClosestPointResult> hits = loc.locate(P);
-  const Eigen::Index n = P.rows();
-  map.elem.resize(n);
-  map.bary.resize(n, 4);
+  TetMesh ball;
+  ball.V = f_target;
+  ball.T = target.T;
   int outside = 0;
-  for (Eigen::Index i = 0; i < n; ++i) {
-    map.elem(i) = hits[i].elem;
-    Eigen::Vector4d b = hits[i].bary.cwiseMax(0.0);
-    b /= b.sum();
-    map.bary.row(i) = b.transpose();
-    if (hits[i].sqdist > 1e-20) ++outside;
-  }
+  map = locate_in_tets(ball, P, {}, &outside);
   positions = map_positions(map, target.V, target.T);
   return outside;
 }
@@ -107,7 +99,7 @@ RegisterResult register_through_ball(const TetMesh& A, const TetMesh& B, const R
   double s = 0;
   for (int i = 0; i < nA; ++i) s += (A.V.row(i) - r.A_on_B.row(i)).norm() * w(i);
   r.d_phi = s / w.sum();
-  const double diag = (A.V.colwise().maxCoeff() - A.V.colwise().minCoeff()).norm();
+  const double diag = bbox_diagonal(A.V);
   r.d_phi_relative = diag > 0 ? r.d_phi / diag : 0;
   if (opt.frames >= 2) r.frames = linear_homotopy(A.V, r.A_on_B, opt.frames);
   r.seconds_total = since(t0);

@@ -82,14 +82,16 @@ Eigen::MatrixXi faces_in_volume_numbering(const TetBoundary& bd) {
 // Locating positions in a tet mesh
 
 BarycentricMap locate_in_tets(const TetMesh& M, const Eigen::MatrixXd& X,
-                              const std::vector<int>& boundary_rows) {
+                              const std::vector<int>& boundary_rows, int* outside) {
   BarycentricMap map;
   const int n = int(X.rows());
   map.elem.resize(n);
   map.bary.resize(n, 4);
   TetLocator loc(M.V, M.T);
   std::vector<ClosestPointResult> r = loc.locate(X);
+  if (outside) *outside = 0;
   for (int i = 0; i < n; ++i) {
+    if (outside && r[i].sqdist > 1e-20) ++*outside;
     map.elem(i) = r[i].elem;
     Eigen::Vector4d b = r[i].bary.cwiseMax(0.0);
     double s = b.sum();

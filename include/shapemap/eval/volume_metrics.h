@@ -33,7 +33,4 @@ VolumeMapMetrics volume_map_metrics(const TetMesh& source, const TetMesh& target
                                     const Eigen::MatrixXd* X_ji = nullptr,
                                     const Eigen::MatrixXd* truth = nullptr);
 
-// Bounding-box diagonal of V (n×3).
-double bbox_diagonal(const Eigen::MatrixXd& V);
-
 }  // namespace shapemap

@@ -123,9 +123,10 @@ std::pair<BarycentricMap, BarycentricMap> surface_map_for_volumes(const TriMesh&
 
 // Locates positions X (k×3) in the tet mesh M: a containing tet (or the closest one);
 // rows listed in `boundary_rows` are instead snapped to the closest point of M's
-// boundary surface (face -> its tet, 4th coordinate 0).
+// boundary surface (face -> its tet, 4th coordinate 0). `outside`, if given, receives how
+// many positions lay outside every tet (they went to the closest tet, coordinates clamped).
 BarycentricMap locate_in_tets(const TetMesh& M, const Eigen::MatrixXd& X,
-                              const std::vector<int>& boundary_rows = {});
+                              const std::vector<int>& boundary_rows = {}, int* outside = nullptr);
 
 // ---- The objective of one direction, exposed for tests ----------------------------
 
