@@ -276,31 +276,38 @@ TetMesh mesh_once(const TriMesh& surface_in, const TetrahedralizeOptions& opt,
 
 }  // namespace
 
-TetMesh tetrahedralize(const TriMesh& surface, const TetrahedralizeOptions& opt,
-                       const ProgressCallback& progress, TetrahedralizeInfo* info) {
-  TetMesh out = mesh_once(surface, opt, progress, info);
-  if (!(opt.optimize && opt.odt)) return out;
-  // ODT moves vertices after refinement, where Mesh_3's manifold criterion no longer holds:
-  // on shrec07-302.off it left a non-manifold edge on the boundary. A mesh with such defects
-  // (the ones ODT can cause) is made again without ODT, and the plain mesh is used when it
-  // has fewer of them (deterministic: the same input gives the same choice).
+TetMesh keep_odt_unless_defective(TetMesh smoothed,
+                                  const std::function<TetMesh(TetrahedralizeInfo*)>& remesh_plain,
+                                  TetrahedralizeInfo* info) {
+  // Seen on shrec07-302.off: ODT left a non-manifold edge on the boundary. Deterministic: the
+  // same input gives the same choice.
   auto defects = [](const MeshReport& r) {
     return r.non_manifold_edges + r.non_manifold_vertices + r.degenerate_elements + r.inverted_elements;
   };
-  const MeshReport rep = check_volume(out);
+  const MeshReport rep = check_volume(smoothed);
   if (defects(rep) > 0) {
     TetrahedralizeInfo plain_info;
-    TetrahedralizeOptions plain = opt;
-    plain.odt = false;
-    TetMesh alt = mesh_once(surface, plain, progress, &plain_info);
+    TetMesh alt = remesh_plain(&plain_info);
     if (defects(check_volume(alt)) < defects(rep)) {
-      plain_info.odt_dropped = rep.problems.front();
+      plain_info.odt_smoothed = false;
+      plain_info.odt_dropped = rep.problems.empty() ? "defective tets" : rep.problems.front();
       if (info) *info = plain_info;
       return alt;
     }
   }
   if (info) info->odt_smoothed = true;
-  return out;
+  return smoothed;
+}
+
+TetMesh tetrahedralize(const TriMesh& surface, const TetrahedralizeOptions& opt,
+                       const ProgressCallback& progress, TetrahedralizeInfo* info) {
+  TetMesh out = mesh_once(surface, opt, progress, info);
+  if (!(opt.optimize && opt.odt)) return out;
+  TetrahedralizeOptions plain = opt;
+  plain.odt = false;
+  return keep_odt_unless_defective(
+      std::move(out), [&](TetrahedralizeInfo* plain_info) { return mesh_once(surface, plain, progress, plain_info); },
+      info);
 }
 
 namespace cgal_internal {

@@ -2,6 +2,7 @@
 #pragma once
 #include "shapemap/mesh.h"
 #include "shapemap/progress.h"
+#include <functional>
 #include <string>
 
 namespace shapemap {
@@ -35,5 +36,15 @@ struct TetrahedralizeInfo {
 // The result has positively oriented tets and no inverted elements.
 TetMesh tetrahedralize(const TriMesh& surface, const TetrahedralizeOptions& opt = {},
                        const ProgressCallback& progress = {}, TetrahedralizeInfo* info = nullptr);
+
+// The ODT fallback of tetrahedralize(), exposed for tests. ODT moves vertices after Mesh_3's
+// manifold criterion has been enforced, so it can leave defects: non-manifold boundary edges
+// or vertices, degenerate or inverted tets. `smoothed` is kept unless it has such defects and
+// `remesh_plain` (the same meshing without ODT; it fills its own info) returns a mesh with
+// fewer. `info` gets odt_smoothed, or the plain run's info with odt_dropped naming the
+// smoothed mesh's first problem.
+TetMesh keep_odt_unless_defective(TetMesh smoothed,
+                                  const std::function<TetMesh(TetrahedralizeInfo*)>& remesh_plain,
+                                  TetrahedralizeInfo* info);
 
 }  // namespace shapemap
