@@ -74,6 +74,10 @@ inline std::string ball_quality_warning(const std::string& what, const BallMetri
   std::snprintf(line, sizeof line, "%s: warning: the ball map is not bijective or not volume-preserving: %d folded tets (%.2f%%), mean D_V %.3g",
                 what.c_str(), m.folded_tets, 100.0 * m.folded_tets / std::max(1, m.num_tets), m.dv_mean);
   std::string s = line;
+  if (m.max_radius > 1.01) {  // folds let interior vertices leave the ball
+    std::snprintf(line, sizeof line, "; vertices mapped outside the ball (max radius %.3g)", m.max_radius);
+    s += line;
+  }
   if (r.sphere_folded_faces > 0)
     s += "; the spherical boundary map already folded " + std::to_string(r.sphere_folded_faces) +
          " faces (a shape with long thin parts; docs/methods.md)";

@@ -27,7 +27,8 @@ double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::
 // vertex of a folded tet (or, when that stalls, of a growing neighbourhood) is moved
 // towards the mean of its neighbours (t = 1, 1/2, 1/4, 1/8) when that lowers the number of
 // non-positive tets around it, or keeps it and raises their smallest volume (Gauss-Seidel
-// sweeps). f n×3, rows >= nI are boundary vertices: they move only on the unit sphere
+// sweeps); interior vertices are not moved out of the unit ball. f n×3, rows >= nI are
+// boundary vertices: they move only on the unit sphere
 // (towards the normalized mean of their boundary neighbours, re-normalized), which is
 // needed for tets with all four vertices on the boundary. Neighbourhoods could grow by
 // rings when stalled; kMaxUntangleRings = 0 (measured: growing them only smooths away
@@ -144,6 +145,9 @@ int untangle_interior(const Eigen::MatrixXi& T, int nI, int max_rounds, Eigen::M
         for (double st = 0.5 * scale; st > 1e-6 * scale; st *= 0.5) {
           f.row(i) = o + st * d.transpose();
           if (bnd) f.row(i).normalize();
+          // Interior vertices stay in the ball: unguarded, the ascent walked one out to
+          // radius 66 on a pair of glasses (120k tets), E_I 13.7 -> 1.3e5.
+          if (!bnd && f.row(i).squaredNorm() > 1) continue;
           int nf;
           const double w = local(i, nf);
           if (nf < best_nf || (nf == best_nf && w > best_w)) {
@@ -629,6 +633,18 @@ BallParamResult ball_parameterization_once(const TetMesh& mesh, const BallParamO
   };
   barrier(true);
   cg_loop(opt.max_iterations, opt.prevent_new_folds);
+  // A heavily folded VSEM map (long thin parts) can give an L_V(f^(0)) that factors but is
+  // nearly singular: M^{-1} g is then huge (measured 1e9 on a pair of glasses) and the model
+  // steps tiny, so CG stops early or crawls. A healthy run lowers E_I by an order of
+  // magnitude, so when CG left E_I above half its start with inverted tets, CG runs again
+  // (MaxIter more iterations) with the L_V(e) preconditioner of the factorization fallback
+  // above (measured on a bent thin tube: E_I after CG 6.03 -> 0.147 of 6.20).
+  if (opt.stall_preconditioner_fallback && E > 0.5 * res.energy_vsem && sbe.inverted_tets(x) > 0) {
+    res.preconditioner_fallbacks++;
+    factor_blocks(Vp, false);
+    res.converged = false;
+    cg_loop(opt.max_iterations, opt.prevent_new_folds);
+  }
   barrier(false);
 
   res.seconds_cg = since(t_cg);
@@ -643,7 +659,9 @@ BallParamResult ball_parameterization_once(const TetMesh& mesh, const BallParamO
   // (2) if folds remain, L-BFGS on E_I + fold penalty (tets, and boundary faces next to the
   // folds) with the weight raised tenfold per round until none is left; (3) CG polishing
   // (with the boundary barrier if on) in which no step may increase the number of folded
-  // tets. Each stage is kept only if it lowers the fold count.
+  // tets. Each stage is kept only if it lowers the fold count and its E_I is not above the
+  // VSEM start's: on a pair of glasses (120k tets) the penalty rounds traded 5080 -> 1847
+  // folds for E_I 4.6 -> 781 with interior vertices at radius 75, which is no ball map.
   auto count_folds = [&](const Eigen::MatrixXd& fm) {
     Eigen::VectorXd vol;
     energy.image_volumes(fm, vol);
@@ -662,7 +680,7 @@ BallParamResult ball_parameterization_once(const TetMesh& mesh, const BallParamO
     if (opt.untangle_rounds > 0 && res.inverted_cg > 0) {
       untangle_interior(Tp, nI, opt.untangle_rounds, fu);
       const int k = count_folds(fu);
-      if (k < now) {
+      if (k < now && energy.energy(fu) <= res.energy_vsem) {
         f = fu;
         now = k;
       }
@@ -697,7 +715,7 @@ BallParamResult ball_parameterization_once(const TetMesh& mesh, const BallParamO
         ++res.penalty_rounds;
       }
       sbe.set_fold_penalty(0, 0);
-      if (k < now) {
+      if (k < now && energy.energy(fu) <= res.energy_vsem) {
         f = fu;
         now = k;
       }
@@ -709,7 +727,7 @@ BallParamResult ball_parameterization_once(const TetMesh& mesh, const BallParamO
       cg_loop(opt.polish_iterations, true);
       barrier(false);
       sbe.to_map(x, fu);
-      if (count_folds(fu) <= now) f.swap(fu);
+      if (count_folds(fu) <= now && energy.energy(fu) <= res.energy_vsem) f.swap(fu);
     }
     res.polish_iterations = res.iterations - it0;
     res.converged = converged;

@@ -115,6 +115,12 @@ struct BallParamOptions {
   // post-step it only runs on results that missed the paper's own target of 0 folds, and
   // leaves every fold-free result as the paper computes it. 0 = off.
   double fold_retry_barrier = 0.01;
+  // Stall fallback (deviation, docs/methods.md): when CG leaves E_I above half its VSEM
+  // value and inverted tets remain, M = blockdiag(L_II, L_BB) is re-factored from L_V(e) of
+  // the input and CG runs MaxIter more iterations (the paper's L_V(f^(0)) is nearly singular
+  // when the VSEM map is heavily folded; measured on a bent thin tube, E_I after CG 6.03 ->
+  // 0.147 of 6.20).
+  bool stall_preconditioner_fallback = true;
   bool prevent_new_folds = false;   // halve a step that would increase the number of
                                     // inverted tets (off: the paper's plain step; on, CG
                                     // tends to stall early, see docs/methods.md)
@@ -151,7 +157,8 @@ struct BallParamResult {
   double sphere_area_distortion_mean = 0, sphere_area_distortion_max = 0;  // its |ratio - 1|
   // Timings in seconds.
   double seconds_total = 0, seconds_sphere = 0, seconds_vsem = 0, seconds_factor = 0;
-  int preconditioner_fallbacks = 0;  // factorizations of L_V(f) that fell back to L_V(e)
+  int preconditioner_fallbacks = 0;  // switches of M from L_V(f) to L_V(e): L_V(f) did not
+                                     // factor, or CG stalled early with it (ball_param.cpp)
   double seconds_cg = 0, seconds_cg_solve = 0, seconds_cg_eval = 0;
   double seconds_post = 0;          // untangling + polishing post-step
   // Fold retry (BallParamOptions::fold_retry_barrier): whether it ran, whether its result was
