@@ -27,8 +27,7 @@ double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::
 // vertex of a folded tet (or, when that stalls, of a growing neighbourhood) is moved
 // towards the mean of its neighbours (t = 1, 1/2, 1/4, 1/8) when that lowers the number of
 // non-positive tets around it, or keeps it and raises their smallest volume (Gauss-Seidel
-// sweeps); interior vertices are not moved out of the unit ball. f n×3, rows >= nI are
-// boundary vertices: they move only on the unit sphere
+// sweeps). f n×3, rows >= nI are boundary vertices: they move only on the unit sphere
 // (towards the normalized mean of their boundary neighbours, re-normalized), which is
 // needed for tets with all four vertices on the boundary. Neighbourhoods could grow by
 // rings when stalled; kMaxUntangleRings = 0 (measured: growing them only smooths away
@@ -145,9 +144,6 @@ int untangle_interior(const Eigen::MatrixXi& T, int nI, int max_rounds, Eigen::M
         for (double st = 0.5 * scale; st > 1e-6 * scale; st *= 0.5) {
           f.row(i) = o + st * d.transpose();
           if (bnd) f.row(i).normalize();
-          // Interior vertices stay in the ball: unguarded, the ascent walked one out to
-          // radius 66 on a pair of glasses (120k tets), E_I 13.7 -> 1.3e5.
-          if (!bnd && f.row(i).squaredNorm() > 1) continue;
           int nf;
           const double w = local(i, nf);
           if (nf < best_nf || (nf == best_nf && w > best_w)) {
@@ -419,11 +415,13 @@ BallParamResult ball_parameterization_once(const TetMesh& mesh, const BallParamO
     Eigen::SparseMatrix<double> LBB = L.bottomRightCorner(nB, nB);
     if (first) cholB.compute(LBB); else cholB.factorize(LBB);
   };
+  bool m_is_input_laplacian = false;  // M was factored from L_V(e)
   try {
     factor_blocks(fp, true);
   } catch (const Error&) {
     res.preconditioner_fallbacks++;
     factor_blocks(Vp, true);
+    m_is_input_laplacian = true;
   }
   res.seconds_factor = since(t0);
   // Re-factor the preconditioner blocks at the current map (same pattern).
@@ -433,9 +431,11 @@ BallParamResult ball_parameterization_once(const TetMesh& mesh, const BallParamO
     sbe.to_map(xx, fc);
     try {
       factor_blocks(fc, false);
+      m_is_input_laplacian = false;
     } catch (const Error&) {
       res.preconditioner_fallbacks++;
       factor_blocks(Vp, false);
+      m_is_input_laplacian = true;
     }
     res.seconds_factor += since(tf);
   };
@@ -638,14 +638,19 @@ BallParamResult ball_parameterization_once(const TetMesh& mesh, const BallParamO
   // steps tiny, so CG stops early or crawls. A healthy run lowers E_I by an order of
   // magnitude, so when CG left E_I above half its start with inverted tets, CG runs again
   // (MaxIter more iterations) with the L_V(e) preconditioner of the factorization fallback
-  // above (measured on a bent thin tube: E_I after CG 6.03 -> 0.147 of 6.20).
-  if (opt.stall_preconditioner_fallback && E > 0.5 * res.energy_vsem && sbe.inverted_tets(x) > 0) {
+  // above (measured on a bent thin tube: E_I after CG 6.03 -> 0.279 of 6.20). E is compared
+  // without the barrier, like energy_vsem.
+  barrier(false);
+  if (opt.stall_preconditioner_fallback && !m_is_input_laplacian && E > 0.5 * res.energy_vsem &&
+      sbe.inverted_tets(x) > 0) {
     res.preconditioner_fallbacks++;
     factor_blocks(Vp, false);
+    m_is_input_laplacian = true;
     res.converged = false;
+    barrier(true);
     cg_loop(opt.max_iterations, opt.prevent_new_folds);
+    barrier(false);
   }
-  barrier(false);
 
   res.seconds_cg = since(t_cg);
   res.cpu_seconds_cg = double(std::clock() - c_cg) / CLOCKS_PER_SEC;
@@ -660,7 +665,7 @@ BallParamResult ball_parameterization_once(const TetMesh& mesh, const BallParamO
   // folds) with the weight raised tenfold per round until none is left; (3) CG polishing
   // (with the boundary barrier if on) in which no step may increase the number of folded
   // tets. Each stage is kept only if it lowers the fold count and its E_I is not above the
-  // VSEM start's: on a pair of glasses (120k tets) the penalty rounds traded 5080 -> 1847
+  // VSEM start's (or the CG result's, if higher): on a pair of glasses (120k tets) the penalty rounds traded 5080 -> 1847
   // folds for E_I 4.6 -> 781 with interior vertices at radius 75, which is no ball map.
   auto count_folds = [&](const Eigen::MatrixXd& fm) {
     Eigen::VectorXd vol;
@@ -675,12 +680,14 @@ BallParamResult ball_parameterization_once(const TetMesh& mesh, const BallParamO
     const auto t_post = Clock::now();
     const bool converged = res.converged;
     const int it0 = res.iterations;
+    // E_I bound for the stages (the CG result can exceed E_vsem only with the barrier on).
+    const double e_cap = std::max(res.energy_vsem, energy.energy(f));
     int now = res.inverted_cg;
     Eigen::MatrixXd fu = f;
     if (opt.untangle_rounds > 0 && res.inverted_cg > 0) {
       untangle_interior(Tp, nI, opt.untangle_rounds, fu);
       const int k = count_folds(fu);
-      if (k < now && energy.energy(fu) <= res.energy_vsem) {
+      if (k < now && energy.energy(fu) <= e_cap) {
         f = fu;
         now = k;
       }
@@ -715,7 +722,7 @@ BallParamResult ball_parameterization_once(const TetMesh& mesh, const BallParamO
         ++res.penalty_rounds;
       }
       sbe.set_fold_penalty(0, 0);
-      if (k < now && energy.energy(fu) <= res.energy_vsem) {
+      if (k < now && energy.energy(fu) <= e_cap) {
         f = fu;
         now = k;
       }
@@ -727,7 +734,7 @@ BallParamResult ball_parameterization_once(const TetMesh& mesh, const BallParamO
       cg_loop(opt.polish_iterations, true);
       barrier(false);
       sbe.to_map(x, fu);
-      if (count_folds(fu) <= now && energy.energy(fu) <= res.energy_vsem) f.swap(fu);
+      if (count_folds(fu) <= now && energy.energy(fu) <= e_cap) f.swap(fu);
     }
     res.polish_iterations = res.iterations - it0;
     res.converged = converged;

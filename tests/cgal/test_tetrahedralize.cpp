@@ -267,4 +267,12 @@ TEST(Tetrahedralize, OdtFallbackKeepsTheMeshWithFewerDefects) {
   EXPECT_TRUE(info.odt_smoothed);
   EXPECT_FALSE(info.creases_protected);
   EXPECT_TRUE(info.odt_dropped.empty());
+  // A tie (one inverted tet each): the smoothed mesh is kept.
+  info = {};
+  TetMesh smoothed = unit_tets(1, true);
+  smoothed.V *= 2.0;
+  r = keep_odt_unless_defective(smoothed, plain(unit_tets(1, true)), &info);
+  EXPECT_EQ(calls, 3);
+  EXPECT_DOUBLE_EQ(r.V(1, 2), 2.0);
+  EXPECT_TRUE(info.odt_smoothed);
 }

@@ -119,7 +119,7 @@ struct BallParamOptions {
   // value and inverted tets remain, M = blockdiag(L_II, L_BB) is re-factored from L_V(e) of
   // the input and CG runs MaxIter more iterations (the paper's L_V(f^(0)) is nearly singular
   // when the VSEM map is heavily folded; measured on a bent thin tube, E_I after CG 6.03 ->
-  // 0.147 of 6.20).
+  // 0.279 of 6.20). Not when M already is L_V(e).
   bool stall_preconditioner_fallback = true;
   bool prevent_new_folds = false;   // halve a step that would increase the number of
                                     // inverted tets (off: the paper's plain step; on, CG
