@@ -16,6 +16,10 @@
 //       method's report.json and evaluation JSON) and "summary" (per method, kind and
 //       size: run count, successes, mean seconds and mean of every metric over the
 //       successful runs). Prints a table of the runs on stdout.
+//
+//   tool_bench_util get FILE.json POINTER...
+//       The values at the JSON pointers (e.g. /metrics/D_V/mean), tab-separated on one
+//       line ("-" for a missing one); numbers with 4 significant digits. For bench scripts.
 #include "shapemap/io.h"
 #include "shapemap/maps.h"
 #include <nlohmann/json.hpp>
@@ -389,9 +393,42 @@ int cmd_collect(const std::vector<std::string>& a) {
   return 0;
 }
 
+int cmd_get(const std::vector<std::string>& a) {
+  if (a.size() < 2) {
+    std::cerr << "usage: tool_bench_util get FILE.json POINTER...\n";
+    return 2;
+  }
+  std::ifstream f(a[0]);
+  if (!f) {
+    std::cerr << "tool_bench_util: error: cannot open " << a[0] << "\n";
+    return 2;
+  }
+  const json j = json::parse(f);
+  for (size_t k = 1; k < a.size(); ++k) {
+    const json::json_pointer ptr(a[k]);
+    std::string v = "-";
+    if (j.contains(ptr)) {
+      const json& x = j.at(ptr);
+      if (x.is_number_float()) {
+        char b[32];
+        std::snprintf(b, sizeof b, "%.4g", x.get<double>());
+        v = b;
+      } else if (x.is_string()) {
+        v = x.get<std::string>();
+      } else {
+        v = x.dump();
+      }
+    }
+    std::cout << (k > 1 ? "\t" : "") << v;
+  }
+  std::cout << "\n";
+  return 0;
+}
+
 int usage() {
   std::cerr << "usage: tool_bench_util landmarks PAIR_DIR K LA LB\n"
-               "       tool_bench_util collect STEPS.jsonl -o RESULTS.json [--meta KEY=VALUE]...\n";
+               "       tool_bench_util collect STEPS.jsonl -o RESULTS.json [--meta KEY=VALUE]...\n"
+               "       tool_bench_util get FILE.json POINTER...\n";
   return 2;
 }
 
@@ -404,6 +441,7 @@ int main(int argc, char** argv) {
   try {
     if (cmd == "landmarks") return cmd_landmarks(args);
     if (cmd == "collect") return cmd_collect(args);
+    if (cmd == "get") return cmd_get(args);
     if (cmd == "-h" || cmd == "--help") return usage(), 0;
   } catch (const std::exception& e) {
     std::cerr << "tool_bench_util: error: " << e.what() << "\n";
