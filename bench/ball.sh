@@ -15,7 +15,7 @@
 #                      [--build DIR] [--work DIR]
 #   defaults: 8 seeds, 8000 surface vertices and 40000 tets requested (about 7k vertices /
 #   33k tets after meshing), spot 42000 tets (about 7.2k vertices), build/, bench/out/ball.
-# A full run takes about 3 minutes on 2 cores (6 more with --real).
+# A full run takes about 3 minutes on 2 cores (6 more with --real). Exit 1 if a step failed.
 set -uo pipefail
 
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -38,7 +38,7 @@ while [ $# -gt 0 ]; do
     --real) REAL=1 ;;
     --build) BUILD_DIR="${2:?}"; shift ;;
     --work) WORK="${2:?}"; shift ;;
-    -h|--help) sed -n '2,21p' "${BASH_SOURCE[0]}"; exit 0 ;;
+    -h|--help) sed -n '2,18p' "${BASH_SOURCE[0]}"; exit 0 ;;
     *) die "unknown option $1 (see --help)" ;;
   esac
   shift
@@ -55,12 +55,13 @@ OUT="$WORK/ball.md"
 LOG="$WORK/log.txt"
 : >"$LOG"
 
+FAILED=0
 now() { date +%s.%N; }
 # run NAME CMD...: runs a step, appends its output to the log; fails the script on error.
 run() {
   local name="$1"; shift
   echo "== $name: $*" >>"$LOG"
-  "$@" >>"$LOG" 2>&1 || { echo "bench/ball.sh: step '$name' failed (exit $?), see $LOG" >&2; return 1; }
+  "$@" >>"$LOG" 2>&1 || { echo "bench/ball.sh: step '$name' failed (exit $?), see $LOG" >&2; FAILED=$((FAILED + 1)); return 1; }
 }
 
 ROWS=()
@@ -142,3 +143,4 @@ fi
     echo "Speed (spot, \`ball --max-iterations 500 --tolerance 0\`, $nv vertices / $nt tets): CG $cg s for $((it - pit)) iterations ($per s each: energy + gradient $eg s, preconditioner solves $ps s; factorization $fac s); sphere map $sph s, VSEM $vsem s, post-step $post s; total $tot s, wall $wall s. Target: <= 5 s for 500 iterations."
   fi
 } | tee "$OUT"
+[ "$FAILED" = 0 ] || { echo "bench/ball.sh: $FAILED step(s) failed, see $LOG" >&2; exit 1; }
