@@ -134,7 +134,7 @@ fi
     echo "| $name | $nv | $nt | $e0 | $e1 | $fo | $dv | $p50 | $p95 | $be | $ovp | $secs |"
   done
   echo
-  printf '%s\n' "${ROWS[@]}" | awk -F'\t' '
+  [ ${#ROWS[@]} -gt 0 ] && printf '%s\n' "${ROWS[@]}" | awk -F'\t' '
     { n++; if ($6 == 0) f++; if ($7 <= 0.03) d++; if ($5 <= 0.5 * $4) e++; if ($10 <= 1e-9) b++ }
     END { printf "Targets met (of %d rows): 0 folded tets %d; mean D_V <= 0.03 %d; E_I final <= half of after VSEM %d; boundary <= 1e-9 %d\n", n, f, d, e, b }'
   if [ -n "$SPEED" ]; then
