@@ -305,9 +305,10 @@ TetMesh tetrahedralize(const TriMesh& surface, const TetrahedralizeOptions& opt,
   if (!(opt.optimize && opt.odt)) return out;
   TetrahedralizeOptions plain = opt;
   plain.odt = false;
-  return keep_odt_unless_defective(
-      std::move(out), [&](TetrahedralizeInfo* plain_info) { return mesh_once(surface, plain, progress, plain_info); },
-      info);
+  auto remesh_plain = [&](TetrahedralizeInfo* plain_info) {
+    return mesh_once(surface, plain, progress, plain_info);
+  };
+  return keep_odt_unless_defective(std::move(out), remesh_plain, info);
 }
 
 namespace cgal_internal {

@@ -665,8 +665,9 @@ BallParamResult ball_parameterization_once(const TetMesh& mesh, const BallParamO
   // folds) with the weight raised tenfold per round until none is left; (3) CG polishing
   // (with the boundary barrier if on) in which no step may increase the number of folded
   // tets. Each stage is kept only if it lowers the fold count and its E_I is not above the
-  // VSEM start's (or the CG result's, if higher): on a pair of glasses (120k tets) the penalty rounds traded 5080 -> 1847
-  // folds for E_I 4.6 -> 781 with interior vertices at radius 75, which is no ball map.
+  // VSEM start's (or the CG result's, if higher): on a pair of glasses (120k tets) the
+  // penalty rounds traded 5080 -> 1847 folds for E_I 4.6 -> 781 with interior vertices at
+  // radius 75, which is no ball map.
   auto count_folds = [&](const Eigen::MatrixXd& fm) {
     Eigen::VectorXd vol;
     energy.image_volumes(fm, vol);
