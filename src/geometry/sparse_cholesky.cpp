@@ -16,9 +16,13 @@ struct SparseCholesky::Impl {
   cholmod_common common;
   cholmod_factor* factor = nullptr;
   int n = 0;
-  explicit Impl(SparseCholesky::Method method) {
+  Impl(SparseCholesky::Method method, SparseCholesky::Ordering ordering) {
     cholmod_start(&common);
     common.supernodal = method == SparseCholesky::Method::Simplicial ? CHOLMOD_SIMPLICIAL : CHOLMOD_SUPERNODAL;
+    if (ordering == SparseCholesky::Ordering::NestedDissection) {
+      common.nmethods = 1;
+      common.method[0].ordering = CHOLMOD_METIS;
+    }
     common.final_asis = 1;
     common.print = 0;
     common.error_handler = nullptr;  // errors are reported by status codes; we throw
@@ -87,18 +91,19 @@ struct SparseCholesky::Impl {
   }
 };
 
-SparseCholesky::SparseCholesky(Method method) : method_(method), impl_(std::make_unique<Impl>(method)) {}
+SparseCholesky::SparseCholesky(Method method, Ordering ordering)
+    : method_(method), ordering_(ordering), impl_(std::make_unique<Impl>(method, ordering)) {}
 SparseCholesky::~SparseCholesky() = default;
 SparseCholesky::SparseCholesky(SparseCholesky&&) noexcept = default;
 SparseCholesky& SparseCholesky::operator=(SparseCholesky&&) noexcept = default;
 
 void SparseCholesky::compute(const Eigen::SparseMatrix<double>& A) {
-  if (!impl_) impl_ = std::make_unique<Impl>(method_);
+  if (!impl_) impl_ = std::make_unique<Impl>(method_, ordering_);
   impl_->run_factorize(A, true);
 }
 
 void SparseCholesky::factorize(const Eigen::SparseMatrix<double>& A) {
-  if (!impl_) impl_ = std::make_unique<Impl>(method_);
+  if (!impl_) impl_ = std::make_unique<Impl>(method_, ordering_);
   impl_->run_factorize(A, false);
 }
 

@@ -34,6 +34,8 @@ double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::
 // volume accuracy, e.g. spot E_I 0.018 -> 0.023, without removing more folds).
 // Returns the folds left.
 constexpr int kMaxUntangleRings = 0;
+// Below this many vertices the preconditioner's solves run on one thread.
+constexpr int kParallelSolveMin = 2000;
 int untangle_interior(const Eigen::MatrixXi& T, int nI, int max_rounds, Eigen::MatrixXd& f) {
   const int n = int(f.rows());
   std::vector<std::vector<int>> vt(n), nb(n);
@@ -378,10 +380,8 @@ BallParamResult ball_parameterization_once(const TetMesh& mesh, const BallParamO
   std::vector<char> isb(n, 0);
   for (int b = 0; b < nB; ++b) isb[tb.to_volume(b)] = 1;
   Eigen::VectorXi perm, iperm;
-  const int nI = interior_first_order(isb, perm, iperm);
-  Eigen::MatrixXi Tp(mesh.T.rows(), 4);
-  for (Eigen::Index t = 0; t < mesh.T.rows(); ++t)
-    for (int c = 0; c < 4; ++c) Tp(t, c) = perm(mesh.T(t, c));
+  const int nI = interior_first_order(isb, perm, iperm, &V);
+  const Eigen::MatrixXi Tp = renumber_tets(mesh.T, perm);
   Eigen::MatrixXd Vp(n, 3), fp(n, 3);
   for (int i = 0; i < n; ++i) {
     Vp.row(perm(i)) = V.row(i);
@@ -401,7 +401,8 @@ BallParamResult ball_parameterization_once(const TetMesh& mesh, const BallParamO
   t0 = Clock::now();
   Eigen::SparseMatrix<double> L;
   // Simplicial: the CG loop is solve-bound (two solves per iteration), see sparse_cholesky.h.
-  SparseCholesky cholI(SparseCholesky::Method::Simplicial), cholB(SparseCholesky::Method::Simplicial);
+  SparseCholesky cholI(SparseCholesky::Method::Simplicial, SparseCholesky::Ordering::NestedDissection);
+  SparseCholesky cholB(SparseCholesky::Method::Simplicial);
   // L_V(f) is positive definite while the image tets are well shaped; folded or nearly
   // flat image tets can make their modified cotangent weights break that. Then the
   // preconditioner falls back to L_V(e) of the (scaled) input, which is only a
@@ -459,14 +460,27 @@ BallParamResult ball_parameterization_once(const TetMesh& mesh, const BallParamO
   auto precondition = [&](const Eigen::VectorXd& g, Eigen::VectorXd& h) {
     const auto ts = Clock::now();
     h.resize(N);
-    if (nI > 0) {
-      for (int d = 0; d < 3; ++d) gI.col(d) = g.segment(d * nI, nI);
-      const Eigen::MatrixXd hI = cholI.solve(gI);
-      for (int d = 0; d < 3; ++d) h.segment(d * nI, nI) = hI.col(d);
-    }
+    for (int d = 0; d < 3; ++d) gI.col(d) = g.segment(d * nI, nI);
     gB.col(0) = g.segment(3 * nI, nB);
     gB.col(1) = g.segment(3 * nI + nB, nB).cwiseQuotient(s_phi);
-    const Eigen::MatrixXd hB = cholB.solve(gB);
+    // The solves are independent and SparseCholesky::solve is safe to call concurrently:
+    // two balanced halves (2 interior columns | 1 interior column + the boundary block).
+    Eigen::MatrixXd hI01, hI2, hB;
+#pragma omp parallel sections if (n > kParallelSolveMin)
+    {
+#pragma omp section
+      if (nI > 0) hI01 = cholI.solve(Eigen::MatrixXd(gI.leftCols(2)));
+#pragma omp section
+      {
+        if (nI > 0) hI2 = cholI.solve(Eigen::MatrixXd(gI.col(2)));
+        hB = cholB.solve(gB);
+      }
+    }
+    if (nI > 0) {
+      h.segment(0, nI) = hI01.col(0);
+      h.segment(nI, nI) = hI01.col(1);
+      h.segment(2 * nI, nI) = hI2.col(0);
+    }
     h.segment(3 * nI, nB) = hB.col(0);
     h.segment(3 * nI + nB, nB) = hB.col(1).cwiseQuotient(s_phi);
     res.seconds_cg_solve += since(ts);
@@ -552,14 +566,15 @@ BallParamResult ball_parameterization_once(const TetMesh& mesh, const BallParamO
       if (guard) {
         int fn = sbe.inverted_tets(xn);
         int tries = 0;
+        // Halve by the fold count alone (one volume pass); E and g once, at the final step.
         while (fn > folds && tries < 30) {
           alpha *= 0.5;
           xn = x + alpha * p;
-          En = objective(xn, gn);
           fn = sbe.inverted_tets(xn);
           ++tries;
           ++res.fold_backtracks;
         }
+        if (tries > 0) En = objective(xn, gn);
         if (fn > folds || !(En < E)) {
           if (steepest) break;
           p = -h;

@@ -134,7 +134,7 @@ void solve_inner(const Eigen::SparseMatrix<double>& L, const std::vector<char>& 
     }
   Eigen::SparseMatrix<double> A(nI, nI);
   A.setFromTriplets(trip.begin(), trip.end());
-  SparseCholesky chol;
+  SparseCholesky chol(SparseCholesky::Method::Simplicial);
   chol.compute(A);
   const Eigen::MatrixXd x = chol.solve(rhs);
   for (Eigen::Index i = 0; i < n; ++i)

@@ -7,6 +7,9 @@
 #include <Eigen/Geometry>
 #include <Eigen/LU>
 #include <Eigen/SVD>
+#include <algorithm>
+#include <cstdint>
+#include <numeric>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -259,19 +262,53 @@ Eigen::SparseMatrix<double> volumetric_stretch_laplacian(const Eigen::MatrixXd& 
 }
 
 // ------------------------------------------------------------------ VSEM
+namespace {
+// Morton (Z-order) key of a point in the box [lo, lo + ext]: 21 bits per axis, interleaved.
+std::uint64_t morton_key(const Eigen::RowVector3d& p, const Eigen::RowVector3d& lo, const Eigen::RowVector3d& ext) {
+  std::uint64_t key = 0;
+  for (int d = 0; d < 3; ++d) {
+    const double u = ext(d) > 0 ? (p(d) - lo(d)) / ext(d) : 0.0;
+    std::uint64_t q = std::uint64_t(std::clamp(u, 0.0, 1.0) * double((1u << 21) - 1));
+    for (int b = 0; b < 21; ++b) key |= ((q >> b) & 1u) << (3 * b + d);
+  }
+  return key;
+}
+}  // namespace
+
 int interior_first_order(const std::vector<char>& is_boundary, Eigen::VectorXi& perm,
-                         Eigen::VectorXi& iperm) {
+                         Eigen::VectorXi& iperm, const Eigen::MatrixXd* V) {
   const int n = int(is_boundary.size());
+  if (V && V->rows() != n) throw InputError("interior_first_order: V must have one row per vertex");
   perm.resize(n);
   iperm.resize(n);
-  int k = 0;
-  for (int i = 0; i < n; ++i)
-    if (!is_boundary[i]) iperm(k++) = i;
-  const int nI = k;
-  for (int i = 0; i < n; ++i)
-    if (is_boundary[i]) iperm(k++) = i;
+  std::vector<std::uint64_t> key(size_t(n), 0);
+  if (V && n > 0) {
+    const Eigen::RowVector3d lo = V->colwise().minCoeff(), ext = V->colwise().maxCoeff() - lo;
+    for (int i = 0; i < n; ++i) key[size_t(i)] = morton_key(V->row(i), lo, ext);
+  }
+  std::iota(iperm.data(), iperm.data() + n, 0);
+  // Interior first; within each group in Z-order (ties: input order), so that the vertices
+  // of a tet, and tets next to each other, sit close in memory.
+  std::stable_sort(iperm.data(), iperm.data() + n, [&](int a, int b) {
+    if (is_boundary[size_t(a)] != is_boundary[size_t(b)]) return is_boundary[size_t(b)] != 0;
+    return key[size_t(a)] < key[size_t(b)];
+  });
   for (int i = 0; i < n; ++i) perm(iperm(i)) = i;
-  return nI;
+  return int(std::count(is_boundary.begin(), is_boundary.end(), 0));
+}
+
+Eigen::MatrixXi renumber_tets(const Eigen::MatrixXi& T, const Eigen::VectorXi& perm) {
+  const Eigen::Index m = T.rows();
+  Eigen::VectorXi first(m);
+  for (Eigen::Index t = 0; t < m; ++t)
+    first(t) = std::min(std::min(perm(T(t, 0)), perm(T(t, 1))), std::min(perm(T(t, 2)), perm(T(t, 3))));
+  std::vector<int> order(static_cast<size_t>(m));
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return first(a) < first(b); });
+  Eigen::MatrixXi Tp(m, 4);
+  for (Eigen::Index k = 0; k < m; ++k)
+    for (int c = 0; c < 4; ++c) Tp(k, c) = perm(T(order[size_t(k)], c));  // corner order kept
+  return Tp;
 }
 
 VsemResult vsem_fixed_point(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T,
@@ -287,11 +324,9 @@ VsemResult vsem_fixed_point(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T,
     isb[boundary(k)] = 1;
   }
   Eigen::VectorXi perm, iperm;
-  const int nI = interior_first_order(isb, perm, iperm);
+  const int nI = interior_first_order(isb, perm, iperm, &V);
   // Work in the permuted numbering: interior rows first.
-  Eigen::MatrixXi Tp(T.rows(), 4);
-  for (Eigen::Index t = 0; t < T.rows(); ++t)
-    for (int c = 0; c < 4; ++c) Tp(t, c) = perm(T(t, c));
+  const Eigen::MatrixXi Tp = renumber_tets(T, perm);
   Eigen::MatrixXd Vp(n, 3);
   for (int i = 0; i < n; ++i) Vp.row(perm(i)) = V.row(i);
   IsovolumetricEnergy energy(Vp, Tp);
@@ -301,7 +336,8 @@ VsemResult vsem_fixed_point(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T,
   for (Eigen::Index k = 0; k < boundary.size(); ++k) f.row(perm(boundary(k))) = fB.row(k);
 
   Eigen::SparseMatrix<double> L, LII;
-  SparseCholesky chol(SparseCholesky::Method::Simplicial);  // 16 factor+solve pairs, see sparse_cholesky.h
+  // 16 factor+solve pairs of a tet-mesh Laplacian, see sparse_cholesky.h.
+  SparseCholesky chol(SparseCholesky::Method::Simplicial, SparseCholesky::Ordering::NestedDissection);
   Eigen::MatrixXd best;
   double best_E = std::numeric_limits<double>::infinity();
   for (int it = 0; it <= opt.iterations; ++it) {

@@ -5,7 +5,10 @@
 #include "shapemap/volume/vsem.h"
 #include <gtest/gtest.h>
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <numeric>
 #include <random>
 
 using namespace shapemap;
@@ -156,4 +159,54 @@ TEST(Vsem, FixedPointOnAffineBoundaryReproducesAffineMap) {
   EXPECT_LT((r.f - fa).cwiseAbs().maxCoeff(), 1e-9);
   ASSERT_EQ(r.energies.size(), 4u);
   for (double e : r.energies) EXPECT_NEAR(e, 0.0, 1e-10);
+}
+
+TEST(Vsem, RenumberingPutsInteriorFirstInZOrderAndKeepsOrientation) {
+  // The blob with its vertices shuffled (mesh generators number vertices without locality).
+  const TetMesh b = blob_tets(12, Eigen::Vector3d(1.0, 0.8, 0.6), 0.1);
+  std::vector<int> sh(size_t(b.num_vertices()));
+  std::iota(sh.begin(), sh.end(), 0);
+  std::shuffle(sh.begin(), sh.end(), std::mt19937(7));
+  TetMesh m;
+  m.V.resize(b.V.rows(), 3);
+  for (size_t i = 0; i < sh.size(); ++i) m.V.row(sh[i]) = b.V.row(Eigen::Index(i));
+  m.T = b.T;
+  for (Eigen::Index k = 0; k < m.T.size(); ++k) m.T(k) = sh[size_t(b.T(k))];
+  const TetBoundary tb = boundary_surface(m);
+  std::vector<char> isb(size_t(m.num_vertices()), 0);
+  for (Eigen::Index k = 0; k < tb.to_volume.size(); ++k) isb[size_t(tb.to_volume(k))] = 1;
+  Eigen::VectorXi perm, iperm;
+  const int nI = interior_first_order(isb, perm, iperm, &m.V);
+  const int n = m.num_vertices();
+  EXPECT_EQ(nI, n - int(tb.to_volume.size()));
+  for (int i = 0; i < n; ++i) {
+    EXPECT_EQ(iperm(perm(i)), i);                 // inverse permutations
+    EXPECT_EQ(perm(i) < nI, isb[size_t(i)] == 0);  // interior first
+  }
+  // Z-order: consecutive vertices are much closer than in the shuffled input order.
+  auto mean_step = [&](const Eigen::VectorXi& order) {
+    double s = 0;
+    for (int k = 1; k < nI; ++k) s += (m.V.row(order(k)) - m.V.row(order(k - 1))).norm();
+    return s / (nI - 1);
+  };
+  Eigen::VectorXi plain_perm, plain_iperm;
+  interior_first_order(isb, plain_perm, plain_iperm);
+  for (int k = 1; k < nI; ++k) EXPECT_LT(plain_iperm(k - 1), plain_iperm(k));  // without V: input order
+  std::printf("mean distance between consecutive interior vertices: Z-order %.4f, shuffled %.4f\n",
+              mean_step(iperm), mean_step(plain_iperm));
+  EXPECT_LT(mean_step(iperm), 0.5 * mean_step(plain_iperm));
+
+  const Eigen::MatrixXi Tp = renumber_tets(m.T, perm);
+  ASSERT_EQ(Tp.rows(), m.T.rows());
+  Eigen::MatrixXd Vp(n, 3);
+  for (int i = 0; i < n; ++i) Vp.row(perm(i)) = m.V.row(i);
+  // Same tets (as oriented volumes), rows sorted by their smallest vertex.
+  const Eigen::VectorXd v0 = tet_volumes(m.V, m.T), v1 = tet_volumes(Vp, Tp);
+  EXPECT_GT(v1.minCoeff(), 0.0);  // orientation kept
+  EXPECT_NEAR(v0.sum(), v1.sum(), 1e-12);
+  std::vector<double> s0(v0.data(), v0.data() + v0.size()), s1(v1.data(), v1.data() + v1.size());
+  std::sort(s0.begin(), s0.end());
+  std::sort(s1.begin(), s1.end());
+  for (size_t k = 0; k < s0.size(); ++k) EXPECT_NEAR(s0[k], s1[k], 1e-15);
+  for (Eigen::Index t = 1; t < Tp.rows(); ++t) EXPECT_LE(Tp.row(t - 1).minCoeff(), Tp.row(t).minCoeff());
 }

@@ -129,7 +129,13 @@ VsemResult vsem_fixed_point(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T,
 
 // Vertex-index reordering helpers shared with ball_param: interior first, boundary last.
 // is_boundary n -> perm (old -> new) and iperm (new -> old); returns the interior count.
+// With V (n×3), each group is in Z-order of the positions: memory locality of the per-tet
+// loops and gathers (spot.obj, 7k vertices, 500 CG iterations, runs alternating with the
+// input order: energy + gradient 1.22 / 1.54 / 1.90 s -> 0.88 / 1.32 / 1.15 s).
 int interior_first_order(const std::vector<char>& is_boundary, Eigen::VectorXi& perm,
-                         Eigen::VectorXi& iperm);
+                         Eigen::VectorXi& iperm, const Eigen::MatrixXd* V = nullptr);
+// T m×4 renumbered by perm (old -> new), rows sorted by their smallest new vertex index
+// (corner order, hence orientation, kept).
+Eigen::MatrixXi renumber_tets(const Eigen::MatrixXi& T, const Eigen::VectorXi& perm);
 
 }  // namespace shapemap
