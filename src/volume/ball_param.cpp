@@ -455,12 +455,15 @@ BallParamResult ball_parameterization_once(const TetMesh& mesh, const BallParamO
   double s_min_chart = s_phi.minCoeff();
 
   const int N = sbe.num_variables();
-  Eigen::MatrixXd gI(nI, 3), gB(nB, 2);
+  // Right-hand sides of the two solve halves below (allocated once).
+  Eigen::MatrixXd gI01(nI, 2), gI2(nI, 1), gB(nB, 2);
   // h = M^{-1} g with M = blockdiag(I3 (x) L_II, L_BB, S L_BB S) (Eq. 16, step 22).
   auto precondition = [&](const Eigen::VectorXd& g, Eigen::VectorXd& h) {
     const auto ts = Clock::now();
     h.resize(N);
-    for (int d = 0; d < 3; ++d) gI.col(d) = g.segment(d * nI, nI);
+    gI01.col(0) = g.segment(0, nI);
+    gI01.col(1) = g.segment(nI, nI);
+    gI2.col(0) = g.segment(2 * nI, nI);
     gB.col(0) = g.segment(3 * nI, nB);
     gB.col(1) = g.segment(3 * nI + nB, nB).cwiseQuotient(s_phi);
     // The solves are independent and SparseCholesky::solve is safe to call concurrently:
@@ -469,10 +472,10 @@ BallParamResult ball_parameterization_once(const TetMesh& mesh, const BallParamO
 #pragma omp parallel sections if (n > kParallelSolveMin)
     {
 #pragma omp section
-      if (nI > 0) hI01 = cholI.solve(Eigen::MatrixXd(gI.leftCols(2)));
+      if (nI > 0) hI01 = cholI.solve(gI01);
 #pragma omp section
       {
-        if (nI > 0) hI2 = cholI.solve(Eigen::MatrixXd(gI.col(2)));
+        if (nI > 0) hI2 = cholI.solve(gI2);
         hB = cholB.solve(gB);
       }
     }
