@@ -22,6 +22,8 @@ Command register_evaluate_ball(CLI::App& evaluate, GlobalOptions& g) {
     if (!is_volume_path(a->A)) throw InputError(a->A + ": not a tet mesh (.mesh .vtk .msh .node .ele)");
     if (!is_volume_path(a->ball)) throw InputError(a->ball + ": not a tet mesh (.mesh .vtk .msh .node .ele)");
     const TetMesh A = read_volume(a->A);
+    // D_V (Eq. 45) divides by |tau|: degenerate or inverted input tets are an input error.
+    require_valid_volume(A, a->A, 0.0);
     const TetMesh F = read_volume(a->ball);
     if (F.num_vertices() != A.num_vertices() || F.num_tets() != A.num_tets())
       throw InputError(a->ball + ": " + std::to_string(F.num_vertices()) + " vertices / " +

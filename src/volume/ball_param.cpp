@@ -10,8 +10,9 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <chrono>
-#include <ctime>
 #include <cmath>
+#include <ctime>
+#include <exception>
 #include <limits>
 #include <numeric>
 
@@ -403,10 +404,10 @@ BallParamResult ball_parameterization_once(const TetMesh& mesh, const BallParamO
   // Simplicial: the CG loop is solve-bound (two solves per iteration), see sparse_cholesky.h.
   SparseCholesky cholI(SparseCholesky::Method::Simplicial, SparseCholesky::Ordering::NestedDissection);
   SparseCholesky cholB(SparseCholesky::Method::Simplicial);
-  // L_V(f) is positive definite while the image tets are well shaped; folded or nearly
-  // flat image tets can make their modified cotangent weights break that. Then the
-  // preconditioner falls back to L_V(e) of the (scaled) input, which is only a
-  // preconditioner choice: the energy and its gradient are unchanged.
+  // L_V(f) is positive semidefinite for every f (each tet adds (2 / (3|tau|)) G G^T), but
+  // collapsed image tets can make its blocks numerically singular, so that CHOLMOD
+  // fails. Then the preconditioner falls back to L_V(e) of the (scaled) input, which is
+  // only a preconditioner choice: the energy and its gradient are unchanged.
   auto factor_blocks = [&](const Eigen::MatrixXd& at, bool first) {
     energy.stretch_laplacian(at, L);
     if (nI > 0) {
@@ -450,9 +451,16 @@ BallParamResult ball_parameterization_once(const TetMesh& mesh, const BallParamO
       s_phi(b) = opt.metric_phi_preconditioner ? std::max(1e-3, std::sin(x(3 * nI + b))) : 1.0;
     return x;
   };
+  // Smallest sin(theta) over the boundary: the pole guard compares it with the chart's
+  // value at the last frame choice (whatever the phi preconditioner block).
+  auto min_sin_theta = [&](const Eigen::VectorXd& xx) {
+    double smin = 1;
+    for (int b = 0; b < nB; ++b) smin = std::min(smin, std::abs(std::sin(xx(3 * nI + b))));
+    return smin;
+  };
   Eigen::VectorXd s_phi;
   Eigen::VectorXd x = choose_frame(fp, s_phi);
-  double s_min_chart = s_phi.minCoeff();
+  double s_min_chart = std::max(1e-3, min_sin_theta(x));
 
   const int N = sbe.num_variables();
   // Right-hand sides of the two solve halves below (allocated once).
@@ -468,17 +476,27 @@ BallParamResult ball_parameterization_once(const TetMesh& mesh, const BallParamO
     gB.col(1) = g.segment(3 * nI + nB, nB).cwiseQuotient(s_phi);
     // The solves are independent and SparseCholesky::solve is safe to call concurrently:
     // two balanced halves (2 interior columns | 1 interior column + the boundary block).
+    // An exception must not leave an OpenMP section (std::terminate): kept and rethrown.
     Eigen::MatrixXd hI01, hI2, hB;
+    std::exception_ptr failure[2];
 #pragma omp parallel sections if (n > kParallelSolveMin)
     {
 #pragma omp section
-      if (nI > 0) hI01 = cholI.solve(gI01);
+      try {
+        if (nI > 0) hI01 = cholI.solve(gI01);
+      } catch (...) {
+        failure[0] = std::current_exception();
+      }
 #pragma omp section
-      {
+      try {
         if (nI > 0) hI2 = cholI.solve(gI2);
         hB = cholB.solve(gB);
+      } catch (...) {
+        failure[1] = std::current_exception();
       }
     }
+    for (const auto& e : failure)
+      if (e) std::rethrow_exception(e);
     if (nI > 0) {
       h.segment(0, nI) = hI01.col(0);
       h.segment(nI, nI) = hI01.col(1);
@@ -603,13 +621,11 @@ BallParamResult ball_parameterization_once(const TetMesh& mesh, const BallParamO
       // Pole guard: a boundary vertex close to a pole of the frame -> new frame, restart.
       bool new_frame = false;
       if (opt.rotate_frame) {
-        double smin = 1;
-        for (int b = 0; b < nB; ++b) smin = std::min(smin, std::abs(std::sin(x(3 * nI + b))));
-        if (smin < opt.pole_guard * s_min_chart) {
+        if (min_sin_theta(x) < opt.pole_guard * s_min_chart) {
           Eigen::MatrixXd f;
           sbe.to_map(x, f);
           x = choose_frame(f, s_phi);
-          s_min_chart = s_phi.minCoeff();
+          s_min_chart = std::max(1e-3, min_sin_theta(x));
           E = objective(x, g);
           ++res.frame_rotations;
           new_frame = true;

@@ -348,12 +348,13 @@ VsemResult vsem_fixed_point(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T,
       if (it == 0) {
         chol.compute(LII);
       } else {
-        // Folded image tets can make L_V(f) indefinite: the fixed point cannot go on
-        // from f, so it stops and keeps the best iterate so far.
+        // L_V(f) is positive semidefinite for any f, but collapsed image tets can make
+        // L_II numerically singular: the fixed point cannot go on from f, so it stops
+        // and keeps the best iterate so far.
         try {
           chol.factorize(LII);
         } catch (const Error&) {
-          res.stopped_indefinite = true;
+          res.stopped_singular = true;
           break;
         }
       }

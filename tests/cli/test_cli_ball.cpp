@@ -66,6 +66,21 @@ TEST(CliBall, BallRegisterEvaluateAndBadInput) {
       << slurp(err);
   const nlohmann::json e = nlohmann::json::parse(slurp(ev));
   EXPECT_NEAR(e["metrics"]["D_V"]["mean"].get<double>(), j["metrics"]["D_V"]["mean"].get<double>(), 1e-6);
+  // D_V (Eq. 45) divides by |tau|: an inverted input tet is an input error, not NaN metrics.
+  {
+    TetMesh a2 = read_volume(A.string()), f2 = ball;
+    std::swap(a2.T(0, 2), a2.T(0, 3));
+    f2.T = a2.T;
+    const fs::path A2 = tmp.path / "a_inverted.vtk", F2 = tmp.path / "ball_inverted.vtk";
+    write_volume(A2.string(), a2);
+    write_volume(F2.string(), f2);
+    const fs::path ev2 = tmp.path / "eval2.json";
+    EXPECT_EQ(run("evaluate ball " + A2.string() + " " + F2.string() + " -o " + ev2.string(), err), 2);
+    const std::string m2 = slurp(err);
+    EXPECT_NE(m2.find(A2.string()), std::string::npos) << m2;
+    EXPECT_EQ(std::count(m2.begin(), m2.end(), '\n'), 1) << m2;
+    EXPECT_FALSE(fs::exists(ev2));
+  }
 
   // register with frames
   const fs::path reg = tmp.path / "reg";

@@ -251,6 +251,21 @@ TEST(BallParam, PaperVariantWithoutPoleHandlingStillRuns) {
   EXPECT_LE(r.energy_final, r.energy_vsem);
 }
 
+TEST(BallParam, PoleGuardDoesNotDependOnThePhiPreconditionerBlock) {
+  // The pole guard compares the smallest sin(theta) with its value at the last frame
+  // choice; with the phi block S L_BB S switched off it once compared with 1 instead and
+  // re-chose the frame (restarting CG) almost every iteration.
+  const TetMesh m = blob_tets(8, Eigen::Vector3d(1.0, 0.8, 0.6), 0.1);
+  BallParamOptions o;
+  o.max_iterations = 60;
+  o.tolerance = 0;
+  const BallParamResult a = ball_parameterization(m, o);
+  o.metric_phi_preconditioner = false;
+  const BallParamResult b = ball_parameterization(m, o);
+  EXPECT_LE(b.frame_rotations, a.frame_rotations + 3);
+  EXPECT_LE(b.restarts, a.restarts + 5);
+}
+
 TEST(BallParam, RejectsNonBallInput) {
   for (int which = 0; which < 2; ++which) {
     const TetMesh m = which == 0 ? two_cubes(2) : hollow_cube(4);

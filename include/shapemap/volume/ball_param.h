@@ -77,7 +77,8 @@ struct BallParamOptions {
   bool anisotropic_scaling = true;  // AST, Eqs. 11-13 (Alg. 1 steps 1-3)
   SphereParamOptions sphere;        // spherical area-preserving boundary map (step 6)
   int vsem_iterations = 15;         // fixed-point updates (steps 9-12; Sec. 6 uses 15)
-  int max_iterations = 500;         // MaxIter (Sec. 6: 500)
+  int max_iterations = 500;         // MaxIter (Sec. 6: 500); a restart without a step counts
+                                    // as one (iterations reports the steps taken)
   double tolerance = 1e-6;          // epsilon: stop when E_old - E_new < tol (steps 19, 37)
   double initial_step = 1.0;        // alpha_{-1} for the first quadratic model (Eq. 17)
   double c1 = 1e-4, c2 = 0.1;       // strong Wolfe constants, 0 < c1 < c2 < 1/2 (Eq. 18)

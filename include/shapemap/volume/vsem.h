@@ -116,13 +116,15 @@ struct VsemResult {
   std::vector<double> energies;     // E_I after the L_V(e) solve and after each update
   int iterations = 0;
   double seconds = 0;
-  bool stopped_indefinite = false;  // L_V(f) lost definiteness (folded image): stopped early
+  bool stopped_singular = false;    // L_II of L_V(f) numerically singular: stopped early
 };
 
 // V n×3 domain (after AST), T m×4, boundary: vertex indices B (nB), fB nB×3 their
 // prescribed images. Solves L_II f_I = -L_IB f_B with L = L_V(e), then `iterations`
-// times with L = L_V(f), stopping early (keeping the best iterate) if L_V(f) is not
-// positive definite. Throws shapemap::Error if L_V(e) itself is not.
+// times with L = L_V(f), stopping early (keeping the best iterate) if L_II of L_V(f) does
+// not factor. Each tet adds (2 / (3|tau|)) G G^T (G: 4x3 gradients of the image volume),
+// so L_V(f) is positive semidefinite for every f, folded or not; L_II only fails when it
+// is numerically singular (collapsed image tets). Throws shapemap::Error if L_V(e) fails.
 VsemResult vsem_fixed_point(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T,
                             const Eigen::VectorXi& boundary, const Eigen::MatrixXd& fB,
                             const VsemOptions& opt = {}, const ProgressCallback& progress = {});
