@@ -107,6 +107,17 @@ inline nlohmann::json ball_metrics_json(const BallMetrics& m) {
   return j;
 }
 
+// The ball options of a run, as report.json's parameters.
+inline nlohmann::json ball_parameters_json(const BallParamOptions& o) {
+  return {{"max_iterations", o.max_iterations},
+          {"tolerance", o.tolerance},
+          {"vsem_iterations", o.vsem_iterations},
+          {"anisotropic_scaling", o.anisotropic_scaling},
+          {"boundary_barrier", o.boundary_barrier},
+          {"fold_retry_barrier", o.fold_retry_barrier},
+          {"prevent_new_folds", o.prevent_new_folds}};
+}
+
 inline nlohmann::json ball_result_json(const BallParamResult& r) {
   nlohmann::json j;
   j["E_I_after_vsem"] = r.energy_vsem;

@@ -46,16 +46,11 @@ Command register_ball(CLI::App& app, GlobalOptions& g) {
     if (in.changed()) write_volume(out.path("input.vtk"), mesh);
     timer.stop();
     nlohmann::json j = report_header(g, "ball");
-    j["input"] = a->A;
+    j["inputs"] = {{"A", a->A}, {"A_vertices", mesh.num_vertices()}, {"A_tets", mesh.num_tets()}};
     j["tetrahedralized"] = in.tetrahedralized;
     j["boundary_chords"] = {{"split", in.chords_split}, {"left", in.chords_left}};
-    j["parameters"] = {{"max_iterations", a->opt.max_iterations},
-                       {"tolerance", a->opt.tolerance},
-                       {"vsem_iterations", a->opt.vsem_iterations},
-                       {"anisotropic_scaling", a->opt.anisotropic_scaling},
-                       {"boundary_barrier", a->opt.boundary_barrier},
-                       {"fold_retry_barrier", a->opt.fold_retry_barrier},
-                       {"prevent_new_folds", a->opt.prevent_new_folds}};
+    j["parameters"] = ball_parameters_json(a->opt);
+    j["parameters"]["split_chords"] = a->split_chords;
     j["metrics"] = ball_metrics_json(m);
     j["metrics_after_vsem"] = ball_metrics_json(mv);
     j["optimization"] = ball_result_json(r);

@@ -83,7 +83,12 @@ Command register_register(CLI::App& app, GlobalOptions& g) {
     }
     timer.stop();
     nlohmann::json j = report_header(g, "register");
-    j["inputs"] = {{"A", a->A}, {"B", a->B}, {"via", a->via}};
+    j["inputs"] = {{"A", a->A}, {"A_vertices", A.num_vertices()}, {"A_tets", A.num_tets()},
+                   {"B", a->B}, {"B_vertices", B.num_vertices()}, {"B_tets", B.num_tets()}};
+    j["parameters"] = ball_parameters_json(a->opt.ball);
+    j["parameters"]["via"] = a->via;
+    j["parameters"]["frames"] = a->frames;
+    j["parameters"]["split_chords"] = a->split_chords;
     j["tetrahedralized"] = {{"A", inA.tetrahedralized}, {"B", inB.tetrahedralized}};
     j["boundary_chords"] = {{"A", {{"split", inA.chords_split}, {"left", inA.chords_left}}},
                             {"B", {{"split", inB.chords_split}, {"left", inB.chords_left}}}};

@@ -96,7 +96,7 @@ void write_mapped_surface(const std::string& path, const TriMesh& source, const 
   write_surface(path, m);
 }
 
-int run_bim(const SurfaceMapArgs& a, const GlobalOptions& g) {
+int run_bim(const SurfaceMapArgs& a, const ElasticCliOptions& eo, const GlobalOptions& g) {
   StageTimer timer;
   timer.start("read");
   Inputs in = read_inputs(a);
@@ -108,6 +108,9 @@ int run_bim(const SurfaceMapArgs& a, const GlobalOptions& g) {
     require_genus0_surface(ca, a.A, o.min_vertices);
     require_genus0_surface(cb, a.B, o.min_vertices);
   }
+  BarycentricMap truth;
+  const bool has_truth = !eo.truth_ab.empty();
+  if (has_truth) truth = read_checked_map(eo.truth_ab, in.A.num_vertices(), in.B.num_faces());
   timer.start("bim");
   info(g, "surface-map: Blended Intrinsic Maps " + a.A + " -> " + a.B);
   BIMResult r = blended_intrinsic_maps(in.A, in.B, o, make_progress(g));
@@ -121,21 +124,31 @@ int run_bim(const SurfaceMapArgs& a, const GlobalOptions& g) {
   timer.stop();
   nlohmann::json j = report_header(g, "surface-map");
   j["method"] = "bim";
-  j["inputs"] = {{"A", a.A}, {"B", a.B}, {"A_vertices", in.A.num_vertices()}, {"B_vertices", in.B.num_vertices()}};
+  j["inputs"] = {{"A", a.A}, {"B", a.B}, {"A_vertices", in.A.num_vertices()}, {"A_faces", in.A.num_faces()},
+                 {"B_vertices", in.B.num_vertices()}, {"B_faces", in.B.num_faces()}};
   if (!a.landmarks.empty()) j["inputs"]["landmarks"] = a.landmarks;
+  if (has_truth) j["inputs"]["truth"] = eo.truth_ab;
   j["parameters"] = {{"max_features", o.max_features},     {"num_even", o.num_even},
                      {"max_candidates", o.max_candidates}, {"sigma", o.sigma},
                      {"eigenvalue_fraction", o.eigenvalue_fraction},
                      {"entry_fraction", o.entry_fraction}, {"feature_radius", o.feature_radius},
                      {"symmetric", o.symmetric}};
-  j["features_A"] = r.features_A;
-  j["features_B"] = r.features_B;
-  j["AB"] = direction_json(r.AB);
-  if (a.symmetric) j["BA"] = direction_json(r.BA);
+  // BIM's own output (Sec. 5): candidates, consistency spectrum, selected maps, stages.
+  nlohmann::json bim;
+  bim["features_A"] = r.features_A;
+  bim["features_B"] = r.features_B;
+  bim["AB"] = direction_json(r.AB);
+  if (a.symmetric) bim["BA"] = direction_json(r.BA);
   nlohmann::json stages = nlohmann::json::object();
   for (auto& [name, s] : r.timings) stages[name] = s;
-  j["bim_stages"] = stages;
-  j["bim_total_seconds"] = r.total_seconds;
+  bim["stages"] = stages;
+  bim["total_seconds"] = r.total_seconds;
+  j["bim"] = bim;
+  // The same map metrics as the elastic method (and its geodesic error with --truth).
+  timer.start("metrics");
+  j["metrics"]["AB"] = surface_map_metrics_json(in.A, in.B, r.AB.map, a.symmetric ? &r.BA.map : nullptr,
+                                                has_truth ? &truth : nullptr);
+  if (a.symmetric) j["metrics"]["BA"] = surface_map_metrics_json(in.B, in.A, r.BA.map, &r.AB.map, nullptr);
   timer.start("pictures");
   const auto figures = surface_map_figures(in.A, in.B, r.AB.map, a.symmetric ? &r.BA.map : nullptr);
   timer.stop();
@@ -155,6 +168,8 @@ int run_bim(const SurfaceMapArgs& a, const GlobalOptions& g) {
 int run_elastic(const SurfaceMapArgs& a, const ElasticCliOptions& eo, const GlobalOptions& g) {
   // The whole elastic pipeline (init, refinement, metrics, outputs) lives in
   // cli/surface_map_elastic.cpp; --init FILE is validated there (exit 2 on mismatch).
+  if (a.symmetric && eo.injective)
+    throw InputError("--symmetric: the injective model (--elastic-injective, Eq. 4) maps A -> B only");
   ElasticMapArgs e;
   e.A = a.A;
   e.B = a.B;
@@ -176,10 +191,14 @@ Command register_surface_map(CLI::App& app, GlobalOptions& g) {
   c.app->add_option("-o,--output", a->out, "Output folder")->required();
   c.app->add_option("--method", a->method, "bim (Blended Intrinsic Maps) or elastic (refinement)")
       ->check(CLI::IsMember({"bim", "elastic"}));
-  c.app->add_option("--init", a->init, "elastic: initial map, 'bim' or a map file (map_AB.txt format)");
-  c.app->add_option("--landmarks", a->landmarks, "LA LB: corresponding vertex lists (one index per line)")
+  c.app->add_option("--init", a->init, "elastic: initial map, 'bim', a map file (map_AB.txt format) or a folder with "
+                    "map_AB.txt [map_BA.txt]");
+  c.app->add_option("--landmarks", a->landmarks,
+                    "LA LB: corresponding landmark lists (one 0-based vertex index or one x y z point per line)")
       ->expected(2);
-  c.app->add_flag("--symmetric", a->symmetric, "Also compute the map B -> A");
+  c.app->add_flag("--symmetric", a->symmetric,
+                  "BIM: also compute the map B -> A (the elastic bijective model always does; "
+                  "not with --elastic-injective)");
   c.app->add_option("--features", a->max_features, "BIM: at most this many AGD feature points per surface")
       ->check(CLI::Range(3, 30));
   c.app->add_option("--candidates", a->max_candidates, "BIM: at most this many candidate Möbius maps")
@@ -189,7 +208,7 @@ Command register_surface_map(CLI::App& app, GlobalOptions& g) {
   add_elastic_options(c.app, *eo);
   c.run = [a, eo, &g] {
     if (a->method == "elastic") return run_elastic(*a, *eo, g);
-    return run_bim(*a, g);
+    return run_bim(*a, *eo, g);
   };
   return c;
 }

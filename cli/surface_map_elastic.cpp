@@ -59,14 +59,16 @@ BarycentricMap invert_map(const BarycentricMap& P, const TriMesh& A, const TriMe
   return Q;
 }
 
+}  // namespace
+
 BarycentricMap read_checked_map(const std::string& path, int n_source, int m_target) {
   BarycentricMap m = read_map(path);
   validate_map(m, n_source, m_target, 3, path);
   return m;
 }
 
-nlohmann::json distortion_json(const TriMesh& S, const TriMesh& T, const BarycentricMap& P,
-                               const BarycentricMap* Q, const BarycentricMap* truth) {
+nlohmann::json surface_map_metrics_json(const TriMesh& S, const TriMesh& T, const BarycentricMap& P,
+                                        const BarycentricMap* Q, const BarycentricMap* truth) {
   const SurfaceDistortion d = surface_distortion(S, T, P);
   nlohmann::json j;
   j["conformal_distortion_mean"] = d.conformal_mean;      // Sec. 6.1, MIPS - 2
@@ -85,8 +87,6 @@ nlohmann::json distortion_json(const TriMesh& S, const TriMesh& T, const Barycen
   }
   return j;
 }
-
-}  // namespace
 
 int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions& o,
                             const GlobalOptions& g) {
@@ -172,9 +172,10 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
   timer.start("metrics");
   nlohmann::json report = report_header(g, "surface-map");
   report["method"] = "elastic";
-  report["inputs"] = {{"A", args.A}, {"B", args.B}, {"vertices_A", A.num_vertices()},
-                      {"vertices_B", B.num_vertices()}, {"faces_A", A.num_faces()},
-                      {"faces_B", B.num_faces()}};
+  report["inputs"] = {{"A", args.A}, {"B", args.B}, {"A_vertices", A.num_vertices()},
+                      {"A_faces", A.num_faces()}, {"B_vertices", B.num_vertices()},
+                      {"B_faces", B.num_faces()}};
+  if (has_truth) report["inputs"]["truth"] = o.truth_ab;
   report["init"] = init_kind;
   report["parameters"] = {{"model", bij ? "bijective (Eq. 6)" : "injective (Eq. 4)"},
                           {"alpha", eo.alpha}, {"eta", eo.eta}, {"lambda", eo.lambda},
@@ -226,13 +227,13 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
                        {"degenerate_faces_initial", r.degenerate_faces_initial},
                        {"degenerate_faces_final", r.degenerate_faces_final}};
   nlohmann::json metrics;
-  metrics["initial"]["AB"] = distortion_json(A, B, initAB, bij ? &initBA : nullptr,
+  metrics["initial"]["AB"] = surface_map_metrics_json(A, B, initAB, bij ? &initBA : nullptr,
                                              has_truth ? &truth : nullptr);
-  metrics["final"]["AB"] = distortion_json(A, B, r.map_AB, bij ? &r.map_BA : nullptr,
+  metrics["final"]["AB"] = surface_map_metrics_json(A, B, r.map_AB, bij ? &r.map_BA : nullptr,
                                            has_truth ? &truth : nullptr);
   if (bij) {
-    metrics["initial"]["BA"] = distortion_json(B, A, initBA, &initAB, nullptr);
-    metrics["final"]["BA"] = distortion_json(B, A, r.map_BA, &r.map_AB, nullptr);
+    metrics["initial"]["BA"] = surface_map_metrics_json(B, A, initBA, &initAB, nullptr);
+    metrics["final"]["BA"] = surface_map_metrics_json(B, A, r.map_BA, &r.map_AB, nullptr);
   }
   report["metrics"] = metrics;
 

@@ -3,6 +3,7 @@
 // cmd_surface_map.cpp parses A, B, -o, --init, --landmarks and calls run_elastic_surface_map.
 #pragma once
 #include "common.h"
+#include "shapemap/maps.h"
 #include "shapemap/surface/bim.h"
 #include <string>
 #include <vector>
@@ -18,6 +19,15 @@ struct ElasticCliOptions {
   bool partial = false;                  // Sec. 6.2: no unit-area scaling
   std::string truth_ab;                  // ground truth A->B (map file) for the geodesic error
 };
+
+// A map file that must map n_source vertices into m_target triangles (exit 2 otherwise).
+BarycentricMap read_checked_map(const std::string& path, int n_source, int m_target);
+
+// The surface-map metrics of P: S -> T (elastic-correspondence.txt Sec. 6.1: conformal and
+// area distortion, mean-curvature error, flips; reversibility |PQX - X| when Q: T -> S is
+// given; geodesic error against `truth` when given), as report.json's metrics.AB / BA.
+nlohmann::json surface_map_metrics_json(const TriMesh& S, const TriMesh& T, const BarycentricMap& P,
+                                        const BarycentricMap* Q, const BarycentricMap* truth);
 
 // Adds --elastic-preset, --elastic-eta, --elastic-alpha, --elastic-iterations,
 // --elastic-injective, --elastic-partial, --truth to the subcommand.

@@ -101,3 +101,35 @@ TEST(ElasticCli, SymmetricRunWritesOutputsAndEvaluateReportsSec61Metrics) {
                 t.p("out/map_AB.txt")),
             2);
 }
+
+TEST(BimCli, ReportHasTheMapMetricsAndTheGeodesicErrorWithTruth) {
+  TempDir t;
+  ASSERT_EQ(run("generate --shape pair --kind near-isometric --vertices 1000 --seed 2 -o " + t.p("pair")), 0);
+  const std::string A = t.p("pair/A.obj"), B = t.p("pair/B.obj"), truth = t.p("pair/truth_AB.txt");
+  ASSERT_EQ(run("surface-map " + A + " " + B + " -o " + t.p("bim") + " --method bim --symmetric --truth " + truth), 0);
+  const nlohmann::json r = read_json(t.dir / "bim" / "report.json");
+  // BIM's own output under "bim", the map metrics under "metrics" as for the elastic method.
+  EXPECT_GT(r["bim"]["AB"]["num_candidates"].get<int>(), 0);
+  EXPECT_TRUE(r["bim"].contains("BA"));
+  const auto& m = r["metrics"]["AB"];
+  for (const char* k : {"conformal_distortion_mean", "area_distortion_mean_abs", "mean_curvature_error",
+                        "reversibility", "geodesic_error_mean"})
+    EXPECT_TRUE(finite_nonneg(m[k])) << k;
+  EXPECT_LT(m["geodesic_error_mean"].get<double>(), 0.05);  // near-isometric: BIM is accurate
+  EXPECT_TRUE(r["metrics"].contains("BA"));
+  EXPECT_EQ(r["inputs"]["truth"].get<std::string>(), truth);
+  EXPECT_GT(r["inputs"]["A_faces"].get<int>(), 0);
+  // The same geodesic error as `evaluate surface` on the written map.
+  ASSERT_EQ(run("evaluate surface " + A + " " + B + " " + t.p("bim/map_AB.txt") + " --truth " + truth + " -o " +
+                t.p("eval.json")),
+            0);
+  const nlohmann::json e = read_json(t.dir / "eval.json");
+  EXPECT_NEAR(e["geodesic_error"]["mean"].get<double>(), m["geodesic_error_mean"].get<double>(), 1e-9);
+  // A truth map of the wrong size: exit 2, no output folder.
+  EXPECT_EQ(run("surface-map " + B + " " + A + " -o " + t.p("bad") + " --method bim --truth " + truth), 2);
+  EXPECT_FALSE(fs::exists(t.dir / "bad"));
+  // --symmetric with the injective elastic model (which maps A -> B only): exit 2.
+  EXPECT_EQ(run("surface-map " + A + " " + B + " -o " + t.p("inj") + " --method elastic --elastic-injective --symmetric"),
+            2);
+  EXPECT_FALSE(fs::exists(t.dir / "inj"));
+}
