@@ -165,7 +165,7 @@ inline void add_ball_options(CLI::App* app, BallParamOptions& o) {
   app->add_option("--tolerance", o.tolerance, "Stop when E_old - E_new < tol (paper: 1e-6)")
       ->check(non_negative());
   app->add_option("--vsem-iterations", o.vsem_iterations, "VSEM fixed-point updates (paper: 15)")
-      ->check(non_negative());
+      ->check(in_range(0, 10000));
   app->add_flag("!--no-ast", o.anisotropic_scaling, "Skip the anisotropic scaling (Eq. 11)");
   app->add_option("--boundary-barrier", o.boundary_barrier,
                   "Weight of the boundary-layer barrier added to E_I during CG (0: the paper's "

@@ -21,7 +21,7 @@ Command register_ball(CLI::App& app, GlobalOptions& g) {
       ->required();
   c.app->add_option("-o,--output", a->out, "Output folder")->required();
   c.app->add_option("--tets", a->tets, "Approximate tet count when A is a surface (0: default)")
-      ->check(non_negative());
+      ->check(in_range(0, kMaxTets));
   c.app->add_flag("--split-chords", a->split_chords,
                    "Split interior edges that join two boundary vertices (always done for surface inputs); "
                    "ball.vtk is then on the refined mesh, written as OUT/input.vtk");

@@ -40,9 +40,9 @@ Command register_register(CLI::App& app, GlobalOptions& g) {
   c.app->add_option("--via", a->via, "Registration method (ball: Sec. 7 of the isovolumetric paper)")
       ->check(CLI::IsMember({"ball"}));
   c.app->add_option("--frames", a->frames, "Write K >= 2 linear-homotopy frames H(v, t) (Eq. 46)")
-      ->check(non_negative());
+      ->check(in_range(0, 1000));
   c.app->add_option("--tets", a->tets, "Approximate tet count for surface inputs (0: default)")
-      ->check(non_negative());
+      ->check(in_range(0, kMaxTets));
   c.app->add_flag("--split-chords", a->split_chords,
                    "Split interior edges that join two boundary vertices (always done for surface inputs); "
                    "the outputs are then on the refined meshes, written as OUT/A.vtk, OUT/B.vtk");

@@ -3,6 +3,8 @@
 #include "shapemap/error.h"
 #include "shapemap/io.h"
 #include "shapemap/render/scenes.h"
+#include <cctype>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -40,6 +42,11 @@ TriMesh surface_of(const std::string& path) {
 }
 
 int run_render(const RenderArgs& a, const GlobalOptions& g) {
+  {
+    std::string ext = std::filesystem::path(a.out).extension().string();
+    for (char& ch : ext) ch = char(std::tolower(static_cast<unsigned char>(ch)));
+    if (ext != ".png") throw InputError(a.out + ": the output is a PNG picture; name it *.png");
+  }
   SceneOptions so;
   so.render.width = so.render.height = a.width;
   so.wireframe = a.wireframe;

@@ -97,6 +97,7 @@ void write_mapped_surface(const std::string& path, const TriMesh& source, const 
 }
 
 int run_bim(const SurfaceMapArgs& a, const ElasticCliOptions& eo, const GlobalOptions& g) {
+  if (a.init != "bim") throw InputError("--init " + a.init + ": an initial map is only used by --method elastic");
   StageTimer timer;
   timer.start("read");
   Inputs in = read_inputs(a);

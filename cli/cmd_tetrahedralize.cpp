@@ -74,9 +74,9 @@ Command register_tetrahedralize(CLI::App& app, GlobalOptions& g) {
   c.app->add_option("IN", a->input, "Closed surface (.obj .off .ply .stl)")->required();
   c.app->add_option("-o,--output", a->output, "Tet mesh to write (.vtk .mesh .msh .node/.ele)")->required();
   auto* el = c.app->add_option("--edge-length", a->edge_length, "Target tet edge length")
-                 ->check(CLI::PositiveNumber);
+                 ->check(positive());
   auto* nt = c.app->add_option("--tets", a->tets, "Approximate number of tets (default 30000)")
-                 ->check(CLI::PositiveNumber);
+                 ->check(in_range(1, kMaxTets));
   el->excludes(nt);
   c.app->add_flag("--no-optimize", a->no_optimize, "Skip ODT smoothing, sliver perturbation and exudation");
   c.app->add_flag("--no-odt", a->no_odt, "Skip ODT smoothing (keep perturbation and exudation)");

@@ -54,13 +54,14 @@ VolumeInput load_volume_input(const std::string& path, const std::string& name, 
     throw InputError(path + ": unknown extension (tet mesh: .mesh .vtk .msh .node .ele; "
                             "surface: .obj .off .ply .stl)");
   }
+  // Up to 1% bad tets are accepted (and said); more is the one-line error below.
+  require_valid_volume(in.mesh, path, 0.01);
   MeshReport rep = check_volume(in.mesh);
   int bad = rep.inverted_elements + rep.degenerate_elements;
   if (bad > 0)
     info(g, path + ": " + std::to_string(rep.inverted_elements) + " inverted and " +
                 std::to_string(rep.degenerate_elements) + " degenerate tets of " +
                 std::to_string(rep.num_elements));
-  require_valid_volume(in.mesh, path, 0.01);
   return in;
 }
 
@@ -120,14 +121,17 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
                     "refined by elastic correspondence (elastic)")
       ->check(CLI::IsMember({"bim", "elastic"}))
       ->capture_default_str();
-  c.app->add_option("--tets", a->tets, "Target tet count when tetrahedralizing surfaces (0: default)");
-  c.app->add_option("--alpha", a->opt.alpha, "Eq. 25 rigidity weight alpha")->capture_default_str();
-  c.app->add_option("--gamma", a->opt.gamma, "Eq. 25 projection weight gamma")->capture_default_str();
-  c.app->add_option("--beta-start", a->opt.beta_start, "Eq. 25 beta at the first iteration")->capture_default_str();
-  c.app->add_option("--beta-end", a->opt.beta_end, "Eq. 25 beta after the ramp")->capture_default_str();
+  c.app->add_option("--tets", a->tets, "Target tet count when tetrahedralizing surfaces (0: default)")
+      ->check(in_range(0, kMaxTets));
+  c.app->add_option("--alpha", a->opt.alpha, "Eq. 25 rigidity weight alpha")->check(non_negative())->capture_default_str();
+  c.app->add_option("--gamma", a->opt.gamma, "Eq. 25 projection weight gamma")->check(non_negative())->capture_default_str();
+  c.app->add_option("--beta-start", a->opt.beta_start, "Eq. 25 beta at the first iteration")->check(non_negative())->capture_default_str();
+  c.app->add_option("--beta-end", a->opt.beta_end, "Eq. 25 beta after the ramp")->check(non_negative())->capture_default_str();
   c.app->add_option("--max-iterations", a->opt.max_iterations, "Outer iterations per stage (Sec. 5.4)")
+      ->check(non_negative())
       ->capture_default_str();
   c.app->add_option("--xstep-iterations", a->opt.xstep_iterations, "L-BFGS iterations per X-step")
+      ->check(non_negative())
       ->capture_default_str();
   c.app->add_flag("--boundary-to-boundary", a->opt.boundary_to_boundary,
                   "Hard boundary constraint in the P-step (Sec. 5.2)");
@@ -215,12 +219,13 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
         if (a->surface_map_meshes.size() == 2) {
           SA = read_surface(a->surface_map_meshes[0]);
           SB = read_surface(a->surface_map_meshes[1]);
-          validate_map(sAB, SA.num_vertices(), SB.num_faces(), 3, a->surface_map[0]);
-          validate_map(sBA, SB.num_vertices(), SA.num_faces(), 3, a->surface_map[1]);
         } else {
           SA = pick(inA, bA, sAB.size(), a->surface_map[0]);
           SB = pick(inB, bB, sBA.size(), a->surface_map[1]);
         }
+        // Checked here, so that an error names the map file.
+        validate_map(sAB, SA.num_vertices(), SB.num_faces(), 3, a->surface_map[0]);
+        validate_map(sBA, SB.num_vertices(), SA.num_faces(), 3, a->surface_map[1]);
       } else {
         SA = inA.from_surface ? inA.surface : bA.surface;
         SB = inB.from_surface ? inB.surface : bB.surface;

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <iterator>
 #include <mutex>
 
 namespace fs = std::filesystem;
@@ -55,13 +56,18 @@ TetMesh tetrahedralize_input(const TriMesh& surface, const TetrahedralizeOptions
 
 OutputDir::OutputDir(const std::string& final_path) : final_(final_path) {
   if (final_.empty()) throw InputError("output folder: empty path (use -o OUT)");
+  while (final_.size() > 1 && final_.back() == '/') final_.pop_back();
   fs::path p(final_);
   if (fs::exists(p) && !fs::is_directory(p))
     throw InputError(final_ + ": exists and is not a folder");
-  fs::path parent = p.has_parent_path() ? p.parent_path() : fs::path(".");
+  // The temporary folder goes into the nearest existing ancestor: a failed run must not
+  // leave the missing parent folders of OUT behind (they are made at commit()).
+  fs::path anc = p.has_parent_path() ? p.parent_path() : fs::path(".");
+  while (!anc.empty() && !fs::exists(anc)) anc = anc.parent_path();
+  if (anc.empty()) anc = ".";
+  if (!fs::is_directory(anc)) throw InputError(final_ + ": cannot create output folder (" + anc.string() + " is a file)");
   std::error_code ec;
-  fs::create_directories(parent, ec);
-  tmp_ = (parent / ("." + p.filename().string() + ".tmp-" + std::to_string(getpid()))).string();
+  tmp_ = (anc / ("." + p.filename().string() + ".tmp-" + std::to_string(getpid()))).string();
   fs::remove_all(tmp_, ec);
   if (!fs::create_directories(tmp_, ec) || ec)
     throw InputError(final_ + ": cannot create output folder (" + ec.message() + ")");
@@ -84,16 +90,32 @@ std::string OutputDir::path(const std::string& file) const {
 void OutputDir::commit() {
   fs::path dst(final_);
   std::error_code ec;
+  if (dst.has_parent_path()) {
+    fs::create_directories(dst.parent_path(), ec);
+    if (ec) throw InputError(final_ + ": cannot create its parent folder (" + ec.message() + ")");
+  }
   if (!fs::exists(dst)) {
     fs::rename(tmp_, dst, ec);
     if (ec) throw Error(final_ + ": cannot move output into place: " + ec.message());
   } else {
-    // Move each produced file into the existing folder (replacing same-named files).
-    for (auto& e : fs::recursive_directory_iterator(tmp_)) {
-      if (!e.is_regular_file()) continue;
-      fs::path rel = fs::relative(e.path(), tmp_);
+    // Move each produced file into the existing folder (replacing same-named files), after
+    // checking that none of them would replace a folder: all files or none.
+    std::vector<fs::path> files;
+    for (auto& e : fs::recursive_directory_iterator(tmp_))
+      if (e.is_regular_file()) files.push_back(fs::relative(e.path(), tmp_));
+    for (const fs::path& rel : files) {
+      fs::path at = dst;
+      for (auto it = rel.begin(); it != rel.end(); ++it) {
+        at /= *it;
+        const bool last = std::next(it) == rel.end();
+        if (fs::exists(at) && (last ? fs::is_directory(at) : !fs::is_directory(at)))
+          throw InputError(at.string() + ": is in the way of an output " + (last ? "file" : "folder") +
+                           "; nothing was written");
+      }
+    }
+    for (const fs::path& rel : files) {
       fs::create_directories((dst / rel).parent_path(), ec);
-      fs::rename(e.path(), dst / rel, ec);
+      fs::rename(fs::path(tmp_) / rel, dst / rel, ec);
       if (ec) throw Error((dst / rel).string() + ": cannot move into place: " + ec.message());
     }
     fs::remove_all(tmp_, ec);

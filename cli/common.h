@@ -7,28 +7,53 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 #include <chrono>
+#include <cmath>
 #include <cstdint>
 #include <functional>
+#include <sstream>
 #include <string>
 #include <vector>
 
 namespace shapemap::cli {
 
-// ">= 0" check for numeric options with a short message (CLI11's NonNegativeNumber prints
-// the whole double range).
-inline CLI::Validator non_negative() {
+// Largest --tets any command accepts (the tetrahedralizer's bound).
+constexpr double kMaxTets = kMaxTetrahedralizeTets;
+
+// Numeric option checks with short messages (CLI11's own print the whole double range):
+// the value must parse completely, be finite and pass `test` (empty string = fine).
+inline CLI::Validator number_check(std::function<std::string(double)> test, const std::string& name) {
   return CLI::Validator(
-      [](std::string& v) -> std::string {
+      [test](std::string& v) -> std::string {
         try {
           size_t used = 0;
           const double x = std::stod(v, &used);
           if (used != v.size()) return "not a number: " + v;
-          return x >= 0 ? std::string() : "must be >= 0, got " + v;
+          if (!std::isfinite(x)) return "must be finite, got " + v;
+          return test(x);
         } catch (const std::exception&) {
           return "not a number: " + v;
         }
       },
-      "NONNEGATIVE");
+      name);
+}
+inline CLI::Validator non_negative() {
+  return number_check([](double x) { return x >= 0 ? std::string() : "must be >= 0, got " + std::to_string(x); },
+                      "NONNEGATIVE");
+}
+inline CLI::Validator positive() {
+  return number_check([](double x) { return x > 0 ? std::string() : "must be > 0, got " + std::to_string(x); },
+                      "POSITIVE");
+}
+// lo <= x <= hi: bounds that keep a run from asking for billions of threads, tets or frames.
+inline CLI::Validator in_range(double lo, double hi) {
+  return number_check(
+      [lo, hi](double x) {
+        if (x >= lo && x <= hi) return std::string();
+        std::ostringstream m;
+        m << "must be in [" << lo << ", " << hi << "], got " << x;
+        return m.str();
+      },
+      "RANGE");
 }
 
 struct GlobalOptions {

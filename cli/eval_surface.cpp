@@ -17,6 +17,7 @@
 #include "shapemap/eval/surface_metrics.h"
 #include "shapemap/io.h"
 #include "shapemap/maps.h"
+#include "shapemap/mesh.h"
 #include <algorithm>
 #include <iostream>
 #include <vector>
@@ -99,6 +100,13 @@ Command register_evaluate_surface(CLI::App& evaluate, GlobalOptions& g) {
   c.app->add_option("-o,--output", a->out, "Write the JSON here instead of stdout");
   c.run = [a, &g] {
     TriMesh A = read_surface(a->A), B = read_surface(a->B);
+    for (const auto& [M, path] : {std::pair<const TriMesh*, std::string>{&A, a->A}, {&B, a->B}}) {
+      try {
+        unit_area_normalization(*M);  // the metrics' unit-area scaling needs a finite, nonzero area
+      } catch (const InputError& e) {
+        throw InputError(path + ": " + e.what());
+      }
+    }
     BarycentricMap map = read_map(a->map);
     validate_map(map, A.num_vertices(), B.num_faces(), 3, a->map);
     nlohmann::json j;

@@ -10,6 +10,7 @@
 #include "shapemap/eval/volume_metrics.h"
 #include "shapemap/io.h"
 #include "shapemap/maps.h"
+#include "shapemap/mesh.h"
 #include <fstream>
 #include <iostream>
 #include <memory>
@@ -51,7 +52,13 @@ Eigen::MatrixXd read_truth(const std::string& path, const TetMesh& B) {
 TetMesh read_tets(const std::string& path) {
   if (!is_volume_path(path))
     throw InputError(path + ": not a tet mesh (.mesh .vtk .msh .node .ele)");
-  return read_volume(path);
+  TetMesh m = read_volume(path);
+  try {
+    unit_volume_normalization(m);  // the metrics' unit-volume scaling needs a finite, nonzero volume
+  } catch (const InputError& e) {
+    throw InputError(path + ": " + e.what());
+  }
+  return m;
 }
 }  // namespace
 

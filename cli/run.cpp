@@ -10,7 +10,7 @@ int run(const std::vector<std::string>& args) {
   app.require_subcommand(1);
   GlobalOptions g;
   app.add_flag("-q,--quiet", g.quiet, "No progress or messages on stderr");
-  app.add_option("--threads", g.threads, "Worker threads (0 = all cores)")->check(non_negative());
+  app.add_option("--threads", g.threads, "Worker threads (0 = all cores)")->check(in_range(0, 1024));
   app.add_option("--seed", g.seed, "Random seed: the same input and seed give the same output");
   app.set_version_flag("--version", "shapemap 0.1.0");
 
@@ -26,8 +26,13 @@ int run(const std::vector<std::string>& args) {
   try {
     app.parse(rev);
   } catch (const CLI::ParseError& e) {
-    int code = app.exit(e);
-    return code == 0 ? 0 : 2;
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    // One line, like every other input error.
+    std::string msg = e.what();
+    for (char& ch : msg)
+      if (ch == '\n') ch = ' ';
+    std::cerr << "shapemap: error: " << msg << " (see --help)\n";
+    return 2;
   }
   try {
     apply_threads(g);

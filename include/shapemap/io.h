@@ -32,6 +32,7 @@ bool is_surface_path(const std::string& path);
 
 // Landmarks: one 0-based vertex index per line, or "x y z" per line (snapped to the
 // nearest vertex among `candidates`, all vertices if empty). '#' comments allowed.
+// Throws InputError if the file has none, or names the same vertex twice.
 std::vector<int> read_landmarks(const std::string& path, const Eigen::MatrixXd& V,
                                 const std::vector<int>& candidates = {});
 

@@ -1,5 +1,6 @@
 // Simple closed shapes (no CGAL) and the topology helpers of src/cgal/internal.h.
 #include "internal.h"
+#include "shapemap/checks.h"
 #include "shapemap/error.h"
 #include "shapemap/generate.h"
 #include <algorithm>
@@ -115,6 +116,15 @@ void require_closed_manifold(const TriMesh& mesh, const std::string& name) {
     if (mesh.F(f, 0) == mesh.F(f, 1) || mesh.F(f, 1) == mesh.F(f, 2) || mesh.F(f, 0) == mesh.F(f, 2))
       throw InputError(name + ": face " + std::to_string(f) + " repeats a vertex");
   }
+  // CGAL's polyhedral domain asserts on unused vertices and fails on zero-area faces
+  // (e.g. two vertices at the same position): clear input errors instead.
+  const MeshReport r = check_surface(mesh);
+  if (r.unreferenced_vertices > 0)
+    throw InputError(name + ": " + std::to_string(r.unreferenced_vertices) +
+                     " vertices are used by no face (remove them)");
+  if (r.degenerate_elements > 0)
+    throw InputError(name + ": " + std::to_string(r.degenerate_elements) +
+                     " degenerate (zero-area) faces; duplicate vertices?");
   SurfaceTopology t = surface_topology(mesh);
   if (!t.edge_manifold) throw InputError(name + ": non-manifold edges (an edge has more than two faces)");
   if (!t.closed) throw InputError(name + ": surface is not closed (it has boundary edges)");

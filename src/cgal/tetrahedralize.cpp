@@ -23,9 +23,12 @@
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
-#include <mutex>
-#include <thread>
+#include <iomanip>
+#include <iostream>
 #include <memory>
+#include <mutex>
+#include <sstream>
+#include <thread>
 #include <unordered_map>
 
 namespace shapemap {
@@ -123,6 +126,19 @@ class Watchdog {
 
 namespace {
 
+// Redirects std::cerr to a buffer while alive (single-threaded meshing code only).
+class CerrSilencer {
+ public:
+  CerrSilencer() : old_(std::cerr.rdbuf(sink_.rdbuf())) {}
+  ~CerrSilencer() { std::cerr.rdbuf(old_); }
+  CerrSilencer(const CerrSilencer&) = delete;
+  CerrSilencer& operator=(const CerrSilencer&) = delete;
+
+ private:
+  std::ostringstream sink_;
+  std::streambuf* old_;
+};
+
 TetMesh mesh_once(const TriMesh& surface_in, const TetrahedralizeOptions& opt,
                   const ProgressCallback& progress, TetrahedralizeInfo* info) {
   if (info) *info = TetrahedralizeInfo{};
@@ -130,6 +146,9 @@ TetMesh mesh_once(const TriMesh& surface_in, const TetrahedralizeOptions& opt,
   cgal_internal::require_closed_manifold(surface_in, name);
   if (opt.edge_length < 0) throw InputError("tetrahedralize: edge length must be positive");
   if (opt.target_tets < 0) throw InputError("tetrahedralize: target tet count must be positive");
+  if (opt.target_tets > kMaxTetrahedralizeTets)
+    throw InputError("tetrahedralize: target tet count " + std::to_string(opt.target_tets) + " is more than " +
+                     std::to_string(kMaxTetrahedralizeTets));
   if (!(opt.radius_edge_ratio >= 2)) throw InputError("tetrahedralize: radius-edge ratio must be >= 2");
   TriMesh surface = surface_in;
   double vol = enclosed_volume(surface.V, surface.F);
@@ -151,8 +170,18 @@ TetMesh mesh_once(const TriMesh& surface_in, const TetrahedralizeOptions& opt,
     L = std::cbrt(6 * std::sqrt(2.0) * vol * kTetFill / n);
   }
   if (!(L > 1e-6 * diag)) throw InputError("tetrahedralize: edge length too small for the input size");
+  const double expected_tets = 6 * std::sqrt(2.0) * vol * kTetFill / (L * L * L);
+  if (expected_tets > kMaxTetrahedralizeTets) {
+    std::ostringstream m;
+    m << "tetrahedralize: edge length " << L << " gives about " << std::setprecision(2) << expected_tets
+      << " tets, more than " << kMaxTetrahedralizeTets;
+    throw InputError(m.str());
+  }
 
   report(progress, "tetrahedralize/setup", 0);
+  // Mesh_3 writes warnings and "refinement can't start" banners to std::cerr; the
+  // library never prints (failures become exceptions below), so they are dropped.
+  const CerrSilencer silence;
   CGAL::get_default_random() = CGAL::Random(opt.seed);
   SurfaceMesh sm = to_surface_mesh(surface, name);
 
@@ -183,7 +212,6 @@ TetMesh mesh_once(const TriMesh& surface_in, const TetrahedralizeOptions& opt,
   // Runaway guard (deterministic): on noisy surfaces Mesh_3 can refine around tiny crease
   // features without end (measured: a randomly perturbed icosphere ran > 200 s). A cap of
   // twice the expected tet count in vertices (~10x the expected vertex count).
-  const double expected_tets = 6 * std::sqrt(2.0) * vol * kTetFill / (L * L * L);
   const std::size_t max_vertices = std::size_t(std::max(20000.0, 2 * expected_tets));
   CGAL::Mesh_error_code mesh_error = CGAL::CGAL_MESH_3_NO_ERROR;
   CGAL::parameters::internal::Mesh_3_options guard;
@@ -259,7 +287,8 @@ TetMesh mesh_once(const TriMesh& surface_in, const TetrahedralizeOptions& opt,
     }
     tets.push_back(t);
   }
-  if (tets.empty()) throw Error("tetrahedralize: CGAL produced no tetrahedra");
+  if (tets.empty())
+    throw InputError(name + ": no tetrahedra at this size (too few tets asked for this surface; ask for more)");
   TetMesh out;
   out.V.resize(pts.size(), 3);
   for (size_t i = 0; i < pts.size(); ++i) out.V.row(i) = pts[i].transpose();

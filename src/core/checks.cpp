@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <numeric>
 
 namespace shapemap {
@@ -384,6 +385,18 @@ void orient_outward(TriMesh& mesh) {
     if (vol[size_t(comp(mesh.F(f, 0)))] < 0) std::swap(mesh.F(f, 1), mesh.F(f, 2));
 }
 
+namespace {
+// Areas and volumes of the mesh must neither overflow nor underflow a double (meshes
+// scaled by 1e300 or 1e-300 otherwise pass every other check and fail deep inside).
+template <class Fail>
+void require_representable_size(const Eigen::MatrixXd& V, const Fail& fail) {
+  const double d = bbox_diagonal(V);
+  const double d3 = d * d * d;
+  if (!std::isfinite(d3)) fail("coordinates too large (areas and volumes overflow); rescale the mesh");
+  if (!(d3 > 0)) fail("coordinates too small or all equal (areas and volumes are zero); rescale the mesh");
+}
+}  // namespace
+
 void require_genus0_surface(TriMesh& mesh, const std::string& name, int min_vertices) {
   MeshReport R = check_surface(mesh);
   auto fail = [&](const std::string& what) { throw InputError(name + ": " + what); };
@@ -393,6 +406,8 @@ void require_genus0_surface(TriMesh& mesh, const std::string& name, int min_vert
   if (R.num_elements == 0) fail("no faces");
   if (R.num_vertices < min_vertices)
     fail("only " + std::to_string(R.num_vertices) + " vertices (need at least " + std::to_string(min_vertices) + ")");
+  require_representable_size(mesh.V, fail);
+  if (R.degenerate_elements == R.num_elements) fail("every face is degenerate (zero area)");
   if (R.non_manifold_edges)
     fail(plural(R.non_manifold_edges, "non-manifold edge", "non-manifold edges") + " (more than 2 faces)");
   if (R.non_manifold_vertices) fail(plural(R.non_manifold_vertices, "non-manifold vertex", "non-manifold vertices"));
@@ -409,7 +424,7 @@ void require_genus0_surface(TriMesh& mesh, const std::string& name, int min_vert
   }
   if (R.genus != 0)
     fail("genus " + std::to_string(R.genus) + " (Euler characteristic " + std::to_string(R.euler_characteristic) +
-         "); BIM needs genus 0");
+         "); a genus-0 surface is needed");
   if (!R.consistently_oriented || enclosed_volume(mesh.V, mesh.F) < 0) orient_outward(mesh);
 }
 
@@ -423,11 +438,19 @@ void require_valid_volume(const TetMesh& mesh, const std::string& name, double m
   if (R.unreferenced_vertices)
     fail(plural(R.unreferenced_vertices, "vertex", "vertices") + " used by no tetrahedron (remove them)");
   if (R.components > 1) fail(std::to_string(R.components) + " connected components; one is needed");
+  require_representable_size(mesh.V, fail);
   const int bad = R.degenerate_elements + R.inverted_elements;
-  if (double(bad) > max_bad_fraction * R.num_elements)
-    fail(std::to_string(bad) + " of " + std::to_string(R.num_elements) + " tetrahedra are degenerate (" +
-         std::to_string(R.degenerate_elements) + ") or inverted (" + std::to_string(R.inverted_elements) +
-         "), more than " + std::to_string(max_bad_fraction * 100) + "%");
+  if (double(bad) > max_bad_fraction * R.num_elements) {
+    std::string what = std::to_string(bad) + " of " + std::to_string(R.num_elements) + " tetrahedra are degenerate (" +
+                       std::to_string(R.degenerate_elements) + ") or inverted (" +
+                       std::to_string(R.inverted_elements) + ")";
+    if (max_bad_fraction > 0) {
+      char pct[32];
+      std::snprintf(pct, sizeof pct, "%g%%", 100 * max_bad_fraction);
+      what += ", more than " + std::string(pct);
+    }
+    fail(what);
+  }
 }
 
 void require_ball_topology(const TetMesh& mesh, const std::string& name) {

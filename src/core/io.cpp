@@ -4,6 +4,7 @@
 #include "io_detail.h"
 #include <Eigen/Geometry>
 #include <unistd.h>
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <cstdio>
@@ -318,6 +319,13 @@ std::vector<int> read_landmarks(const std::string& path, const Eigen::MatrixXd& 
     P.skip_line();
   }
   if (out.empty()) throw InputError(path + ": no landmarks");
+  // The same vertex twice (listed, or two points snapped to it) would ask one vertex to
+  // correspond to two places.
+  std::vector<int> sorted = out;
+  std::sort(sorted.begin(), sorted.end());
+  const auto dup = std::adjacent_find(sorted.begin(), sorted.end());
+  if (dup != sorted.end())
+    throw InputError(path + ": vertex " + std::to_string(*dup) + " is given more than once (landmarks must be distinct)");
   return out;
 }
 

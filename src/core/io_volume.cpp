@@ -2,6 +2,7 @@
 // gmsh .msh (v2 and v4 ASCII), TetGen .node/.ele. See docs/formats.md.
 #include "io_detail.h"
 #include "shapemap/io.h"
+#include <filesystem>
 
 namespace shapemap::detail {
 
@@ -545,8 +546,18 @@ void write_tetgen(const std::string& path, const TetMesh& m) {
     e += '\n';
   }
   e += "# written by shapemap\n";
+  // Both files or neither: a folder in the way is found before anything is written, and
+  // a failure of the second write removes the first.
+  for (const std::string& q : {node_path, ele_path})
+    if (std::filesystem::is_directory(q)) throw InputError(q + ": is a folder; nothing was written");
   write_bytes_atomic(node_path, s);
-  write_bytes_atomic(ele_path, e);
+  try {
+    write_bytes_atomic(ele_path, e);
+  } catch (...) {
+    std::error_code ec;
+    std::filesystem::remove(node_path, ec);
+    throw;
+  }
 }
 
 }  // namespace shapemap::detail

@@ -4,6 +4,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <map>
 
 namespace shapemap {
@@ -100,6 +101,7 @@ Eigen::MatrixXd Normalization::undo(const Eigen::MatrixXd& V) const {
 Normalization unit_area_normalization(const TriMesh& mesh) {
   Eigen::VectorXd A = triangle_areas(mesh.V, mesh.F);
   double total = A.sum();
+  if (!std::isfinite(total)) throw InputError("surface area overflows (coordinates too large)");
   if (!(total > 0)) throw InputError("surface has zero area");
   Eigen::RowVector3d c = Eigen::RowVector3d::Zero();
   for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
@@ -113,6 +115,7 @@ Normalization unit_area_normalization(const TriMesh& mesh) {
 Normalization unit_volume_normalization(const TetMesh& mesh) {
   Eigen::VectorXd vol = tet_volumes(mesh.V, mesh.T);
   double total = vol.cwiseAbs().sum();
+  if (!std::isfinite(total)) throw InputError("tetrahedral mesh volume overflows (coordinates too large)");
   if (!(total > 0)) throw InputError("tetrahedral mesh has zero volume");
   Eigen::RowVector3d c = Eigen::RowVector3d::Zero();
   for (Eigen::Index t = 0; t < mesh.T.rows(); ++t) {

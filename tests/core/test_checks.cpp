@@ -58,7 +58,7 @@ TEST(Checks, TorusHasGenus1) {
   EXPECT_EQ(r.euler_characteristic, 0);
   EXPECT_EQ(r.genus, 1);
   EXPECT_EQ(message_of([&] { require_genus0_surface(t, "A.obj", 10); }),
-            "A.obj: genus 1 (Euler characteristic 0); BIM needs genus 0");
+            "A.obj: genus 1 (Euler characteristic 0); a genus-0 surface is needed");
 }
 
 TEST(Checks, TwoDisjointSpheresHaveTwoComponents) {

@@ -7,6 +7,9 @@
 
 namespace shapemap {
 
+// Largest tet count tetrahedralize() accepts (explicit or implied by edge_length).
+constexpr int kMaxTetrahedralizeTets = 5000000;
+
 struct TetrahedralizeOptions {
   double edge_length = 0;      // target tet edge length (0: derived from target_tets or the input)
   int target_tets = 0;         // approximate tet count (0: use edge_length or ~30k)

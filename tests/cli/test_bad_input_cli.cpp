@@ -1,0 +1,130 @@
+// Bad input found by fuzzing the command line (not the file readers, which have their own
+// fuzz tests): each case must give exit code 2, one line on stderr that names the problem,
+// and leave no output behind.
+#include "shapemap/io.h"
+#include "cli/cli_run.h"
+#include <gtest/gtest.h>
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <unistd.h>
+
+namespace fs = std::filesystem;
+using namespace shapemap;
+
+namespace {
+struct TempDir {
+  fs::path dir;
+  TempDir() {
+    dir = fs::temp_directory_path() / ("shapemap_bad_input_cli_" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+  }
+  ~TempDir() { fs::remove_all(dir); }
+  std::string p(const std::string& f) const { return (dir / f).string(); }
+};
+
+std::string slurp(const std::string& p) {
+  std::ifstream f(p);
+  return std::string(std::istreambuf_iterator<char>(f), {});
+}
+
+// Runs `args`, expects exit 2 and one stderr line containing `needle`.
+void expect_one_line_error(const TempDir& t, const std::string& args, const std::string& needle) {
+  const std::string err = t.p("err.txt");
+  EXPECT_EQ(shapemap::testing::run_stderr(args, err), 2) << args;
+  const std::string msg = slurp(err);
+  EXPECT_EQ(std::count(msg.begin(), msg.end(), '\n'), 1) << args << "\n" << msg;
+  EXPECT_NE(msg.find(needle), std::string::npos) << args << "\n" << msg;
+}
+
+// A 500-vertex sphere s.obj in t (test_cli links only the core library: the CLI makes it).
+TriMesh make_sphere_file(const TempDir& t) {
+  EXPECT_EQ(shapemap::testing::run_quiet("generate --shape sphere --vertices 500 -o " + t.p("s.obj")), 0);
+  return read_surface(t.p("s.obj"));
+}
+}  // namespace
+
+TEST(BadInputCli, OptionValuesOutOfRangeAreOneLineErrors) {
+  TempDir t;
+  make_sphere_file(t);
+  // Thread, tet, iteration and frame counts that would crash or run for hours.
+  expect_one_line_error(t, "--threads 100000 check " + t.p("s.obj"), "--threads");
+  expect_one_line_error(t, "tetrahedralize " + t.p("s.obj") + " --tets 2147483647 -o " + t.p("o.vtk"), "--tets");
+  expect_one_line_error(t, "tetrahedralize " + t.p("s.obj") + " --edge-length 1e-5 -o " + t.p("o.vtk"), "tets");
+  expect_one_line_error(t, "ball " + t.p("s.obj") + " -o " + t.p("b") + " --vsem-iterations 2147483647",
+                        "--vsem-iterations");
+  expect_one_line_error(t, "tetrahedralize " + t.p("s.obj") + " --tets 0 -o " + t.p("o.vtk"), "--tets");
+  // Non-finite or negative weights.
+  expect_one_line_error(t, "volume-map " + t.p("s.obj") + " " + t.p("s.obj") + " -o " + t.p("v") + " --alpha nan",
+                        "--alpha");
+  expect_one_line_error(t, "volume-map " + t.p("s.obj") + " " + t.p("s.obj") + " -o " + t.p("v") + " --gamma -1",
+                        "--gamma");
+  expect_one_line_error(t, "ball " + t.p("s.obj") + " -o " + t.p("b") + " --tolerance inf", "--tolerance");
+  // A parse error: one line, with the tool's prefix.
+  const std::string err = t.p("err.txt");
+  EXPECT_EQ(shapemap::testing::run_stderr("tetrahedralize " + t.p("s.obj") + " --no-such-option", err), 2);
+  EXPECT_EQ(slurp(err).rfind("shapemap: error: ", 0), 0u) << slurp(err);
+  for (const char* f : {"o.vtk", "b", "v"}) EXPECT_FALSE(fs::exists(t.dir / f)) << f;
+}
+
+TEST(BadInputCli, SurfacesTheTetrahedralizerCannotMesh) {
+  TempDir t;
+  const TriMesh s = make_sphere_file(t);
+  // Too few tets asked for: CGAL produces none (it used to print a banner and exit 1).
+  expect_one_line_error(t, "tetrahedralize " + t.p("s.obj") + " --tets 1 -o " + t.p("o.vtk"), "s.obj");
+  // An unused vertex (a CGAL assertion before).
+  TriMesh u = s;
+  u.V.conservativeResize(u.V.rows() + 1, 3);
+  u.V.row(u.V.rows() - 1) = Eigen::RowVector3d(9, 9, 9);
+  write_surface(t.p("u.obj"), u);
+  expect_one_line_error(t, "tetrahedralize " + t.p("u.obj") + " -o " + t.p("o.vtk"), "used by no face");
+  // Two vertices at one position: degenerate faces (CGAL failed, or warned and went on).
+  TriMesh d = s;
+  d.V.row(d.F(0, 1)) = d.V.row(d.F(0, 0));
+  write_surface(t.p("d.obj"), d);
+  expect_one_line_error(t, "tetrahedralize " + t.p("d.obj") + " -o " + t.p("o.vtk"), "degenerate");
+  expect_one_line_error(t, "ball " + t.p("d.obj") + " -o " + t.p("b"), "degenerate");
+  EXPECT_FALSE(fs::exists(t.dir / "o.vtk"));
+  EXPECT_FALSE(fs::exists(t.dir / "b"));
+  // A surface scaled to zero: the message names the file.
+  TriMesh z = s;
+  z.V.setZero();
+  write_surface(t.p("z.obj"), z);
+  expect_one_line_error(t, "surface-map " + t.p("z.obj") + " " + t.p("s.obj") + " -o " + t.p("m"), "z.obj");
+}
+
+TEST(BadInputCli, NoPartialOutput) {
+  TempDir t;
+  make_sphere_file(t);
+  // A failing run creates none of the missing parent folders of OUT.
+  expect_one_line_error(t, "ball " + t.p("nope.vtk") + " -o " + t.p("nd/a/b"), "nope.vtk");
+  EXPECT_FALSE(fs::exists(t.dir / "nd"));
+  // TetGen output: .node and .ele both or neither.
+  fs::create_directories(t.dir / "pn.ele");
+  expect_one_line_error(t, "tetrahedralize " + t.p("s.obj") + " --tets 300 -o " + t.p("pn.node"), "pn.ele");
+  EXPECT_FALSE(fs::exists(t.dir / "pn.node"));
+  // An existing output folder with a folder where an output file goes: nothing moved in.
+  fs::create_directories(t.dir / "ex" / "report.json" / "sub");
+  expect_one_line_error(t, "ball " + t.p("s.obj") + " -o " + t.p("ex") + " --max-iterations 2 --tets 2000",
+                        "report.json");
+  EXPECT_FALSE(fs::exists(t.dir / "ex" / "ball.vtk"));
+  // render writes PNG only.
+  expect_one_line_error(t, "render " + t.p("s.obj") + " -o " + t.p("r.jpg"), "png");
+  EXPECT_FALSE(fs::exists(t.dir / "r.jpg"));
+}
+
+TEST(BadInputCli, RepeatedLandmarks) {
+  TempDir t;
+  make_sphere_file(t);
+  std::ofstream(t.p("dup.txt")) << "0\n5\n0\n9\n";
+  expect_one_line_error(t, "surface-map " + t.p("s.obj") + " " + t.p("s.obj") + " -o " + t.p("m") + " --landmarks " +
+                               t.p("dup.txt") + " " + t.p("dup.txt"),
+                        "more than once");
+  EXPECT_FALSE(fs::exists(t.dir / "m"));
+  // An initial map given to BIM (which would ignore it).
+  expect_one_line_error(t, "surface-map " + t.p("s.obj") + " " + t.p("s.obj") + " -o " + t.p("m") + " --init " +
+                               t.p("dup.txt"),
+                        "--method elastic");
+}
