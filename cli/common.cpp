@@ -2,9 +2,14 @@
 #include "shapemap/error.h"
 #include "shapemap/io.h"
 #include "shapemap/render/report_html.h"
+#include <ftw.h>
 #include <omp.h>
+#include <sys/stat.h>
 #include <unistd.h>
+#include <atomic>
+#include <csignal>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -54,6 +59,43 @@ TetMesh tetrahedralize_input(const TriMesh& surface, const TetrahedralizeOptions
   return m;
 }
 
+namespace {
+// Temporary output folders of the running commands, removed when the process is
+// interrupted (SIGINT, SIGTERM, SIGHUP), so that an interrupted run leaves nothing behind.
+// Fixed slots, no allocation: the handler only reads them.
+constexpr int kTmpSlots = 8;
+char g_tmp_path[kTmpSlots][4096];
+std::atomic<bool> g_tmp_used[kTmpSlots];
+
+int remove_entry(const char* path, const struct stat*, int, struct FTW*) { return ::remove(path); }
+
+extern "C" void remove_tmp_and_reraise(int sig) {
+  for (int i = 0; i < kTmpSlots; ++i)
+    if (g_tmp_used[i].load()) ::nftw(g_tmp_path[i], remove_entry, 16, FTW_DEPTH | FTW_PHYS);
+  std::signal(sig, SIG_DFL);
+  std::raise(sig);
+}
+
+int register_tmp(const std::string& path) {
+  static std::once_flag handlers;
+  std::call_once(handlers, [] {
+    for (int sig : {SIGINT, SIGTERM, SIGHUP}) std::signal(sig, remove_tmp_and_reraise);
+  });
+  if (path.size() >= sizeof(g_tmp_path[0])) return -1;
+  for (int i = 0; i < kTmpSlots; ++i) {
+    bool expected = false;
+    if (!g_tmp_used[i].load() && std::strcpy(g_tmp_path[i], path.c_str()) &&
+        g_tmp_used[i].compare_exchange_strong(expected, true))
+      return i;
+  }
+  return -1;
+}
+
+void unregister_tmp(int slot) {
+  if (slot >= 0) g_tmp_used[slot].store(false);
+}
+}  // namespace
+
 OutputDir::OutputDir(const std::string& final_path) : final_(final_path) {
   if (final_.empty()) throw InputError("output folder: empty path (use -o OUT)");
   while (final_.size() > 1 && final_.back() == '/') final_.pop_back();
@@ -71,6 +113,7 @@ OutputDir::OutputDir(const std::string& final_path) : final_(final_path) {
   fs::remove_all(tmp_, ec);
   if (!fs::create_directories(tmp_, ec) || ec)
     throw InputError(final_ + ": cannot create output folder (" + ec.message() + ")");
+  slot_ = register_tmp(tmp_);
 }
 
 OutputDir::~OutputDir() {
@@ -78,6 +121,7 @@ OutputDir::~OutputDir() {
     std::error_code ec;
     fs::remove_all(tmp_, ec);
   }
+  unregister_tmp(slot_);
 }
 
 std::string OutputDir::path(const std::string& file) const {

@@ -89,6 +89,7 @@ class OutputDir {
  private:
   std::string final_, tmp_;
   bool committed_ = false;
+  int slot_ = -1;  // the interrupt handler's record of tmp_ (common.cpp)
 };
 
 // Wall-clock timer of named stages, for report.json.

@@ -128,3 +128,16 @@ TEST(BadInputCli, RepeatedLandmarks) {
                                t.p("dup.txt"),
                         "--method elastic");
 }
+
+TEST(BadInputCli, InterruptedRunLeavesNoTemporaryFolder) {
+  TempDir t;
+  make_sphere_file(t);
+  // SIGTERM while the tetrahedralization of a 60k-tet ball runs (several seconds).
+  const std::string cmd = "cd " + t.dir.string() + " && (" + std::string(SHAPEMAP_BINARY) +
+                          " --quiet ball s.obj --tets 60000 -o out & pid=$!; sleep 1.5; kill -TERM $pid; wait $pid)";
+  const int rc = std::system(cmd.c_str());
+  EXPECT_NE(rc, 0);  // it did not finish
+  for (const auto& e : fs::directory_iterator(t.dir))
+    EXPECT_EQ(e.path().filename().string().find(".out.tmp"), std::string::npos) << e.path();
+  EXPECT_FALSE(fs::exists(t.dir / "out"));
+}
