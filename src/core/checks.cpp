@@ -439,6 +439,10 @@ void require_valid_volume(const TetMesh& mesh, const std::string& name, double m
     fail(plural(R.unreferenced_vertices, "vertex", "vertices") + " used by no tetrahedron (remove them)");
   if (R.components > 1) fail(std::to_string(R.components) + " connected components; one is needed");
   require_representable_size(mesh.V, fail);
+  // Repeated tets and triangles shared by more than two tets: not a manifold volume.
+  for (const std::string& p : R.problems)
+    if (p.find("repeated tetrahedr") != std::string::npos || p.find("shared by more than 2") != std::string::npos)
+      fail(p);
   const int bad = R.degenerate_elements + R.inverted_elements;
   if (double(bad) > max_bad_fraction * R.num_elements) {
     std::string what = std::to_string(bad) + " of " + std::to_string(R.num_elements) + " tetrahedra are degenerate (" +

@@ -173,6 +173,20 @@ TEST(Checks, InvertedTetIsReported) {
   EXPECT_EQ(check_volume(flat).degenerate_elements, 6);
 }
 
+TEST(Checks, RepeatedTetAndExtremeScalesAreRejected) {
+  TetMesh g = grid_tets();
+  g.T.conservativeResize(g.T.rows() + 1, 4);
+  g.T.row(g.T.rows() - 1) = g.T.row(0);  // listed twice
+  EXPECT_EQ(message_of([&] { require_valid_volume(g, "g.vtk", 1.0); }), "g.vtk: 1 repeated tetrahedron");
+  // Volumes that overflow or underflow a double (every other check passes).
+  for (double s : {1e120, 1e-120}) {
+    TetMesh h = grid_tets();
+    h.V *= s;
+    const std::string msg = message_of([&] { require_valid_volume(h, "h.vtk"); });
+    EXPECT_EQ(msg.rfind("h.vtk: coordinates too ", 0), 0u) << msg;
+  }
+}
+
 TEST(Checks, SolidTorusAndTwoBlocksAreNotBalls) {
   TetMesh g = grid_tets();
   // Remove the central column of cubes (i = j = 1): a solid torus.
