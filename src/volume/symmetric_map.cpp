@@ -580,6 +580,7 @@ SymmetricVolumeMapResult symmetric_volume_map(const TetMesh& A, const TetMesh& B
     st.name = name;
     auto t0 = Clock::now();
     double E_prev = std::numeric_limits<double>::infinity();
+    double beta_prev = -1;  // beta of E_prev: the decrease rule compares energies of one Eq. 25
     const std::vector<int>& free1 = fix_boundary ? int1 : all1;
     const std::vector<int>& free2 = fix_boundary ? int2 : all2;
     for (int it = 0; it < opt.max_iterations; ++it) {
@@ -614,17 +615,21 @@ SymmetricVolumeMapResult symmetric_volume_map(const TetMesh& A, const TetMesh& B
       bool ramp_done = beta_at(global_iter) == beta;  // beta no longer changes
       if (it + 1 < opt.min_iterations) {
         E_prev = E;
+        beta_prev = beta;
         continue;
       }
       if (gn < opt.grad_tol) {
         st.stop_reason = "gradient";
         break;
       }
-      if (ramp_done && E_prev - E < opt.decrease_tol) {
+      // Only once beta is final, and between two iterations at that beta: the first
+      // iteration at beta_end has a larger E_Q weight than the one before (E rises).
+      if (ramp_done && beta_prev == beta && E_prev - E < opt.decrease_tol) {
         st.stop_reason = "decrease";
         break;
       }
       E_prev = E;
+      beta_prev = beta;
       if (it + 1 == opt.max_iterations) st.stop_reason = "iterations";
     }
     st.inverted12 = count_inverted(e12.arap(), X12);

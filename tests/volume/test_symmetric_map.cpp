@@ -240,6 +240,20 @@ TEST(SymmetricVolumeMap, LandmarkPairQuality) {
   EXPECT_LT(m12.truth_mean, 0.03);
 }
 
+TEST(SymmetricVolumeMap, DecreaseRuleComparesEnergiesAtTheFinalBeta) {
+  // Sec. 5.4 (ii) is tested once beta is final, between two iterations at beta_end: the
+  // first iteration at beta_end has a larger E_Q weight than the one before, so comparing
+  // those two always "stopped" the stage in which the ramp ended (at 21 iterations).
+  const EndToEnd& e = end_to_end();
+  const SymmetricVolumeMapOptions o;
+  int global = 0;
+  for (const auto& s : e.r.stages) {
+    if (s.name != "boundary-fixed" && s.name != "full") continue;
+    global += s.iterations;
+    if (s.stop_reason == "decrease") EXPECT_GE(global, o.beta_ramp_iterations + 2) << s.name;
+  }
+}
+
 TEST(SymmetricVolumeMap, SwappingInputsGivesTheSameMaps) {
   const EndToEnd& e = end_to_end();
   // Symmetry: (B, A) gives the maps of (A, B) with roles exchanged.
