@@ -103,3 +103,45 @@ TEST(Bim, Deterministic) {
   EXPECT_EQ(r1.AB.map.elem, r2.AB.map.elem);
   EXPECT_EQ((r1.AB.map.bary - r2.AB.map.bary).norm(), 0.0);
 }
+
+TEST(Bim, ConfidenceMatchesTheOneRingAreaRatioOnAStretchedPair) {
+  // Eq. 2 on a non-isometric pair: c = 2 / (r + 1/r) with r the area ratio of the map at p.
+  // bim_confidence computes r analytically (flattening area factors of both surfaces and
+  // |m'|^2 of the Möbius map); here it is compared with the ratio of one-ring areas of the
+  // mapped mesh. Source and target flattenings distort area differently (a sphere vs. a
+  // strongly stretched copy), so exchanging their factors would not pass.
+  TriMesh A = make_sphere(2500);
+  TriMesh B = A;
+  B.V = A.V * Eigen::Vector3d(1.6, 0.8, 0.5).asDiagonal();  // same numbering
+  BIMOptions o;
+  std::vector<int> lm = farthest_point_sampling_graph(A.V, A.F, 3, 0);
+  BIMSurface sa = bim_prepare(A, "A", o, lm), sb = bim_prepare(B, "B", o, lm);
+  o.landmarks_A = o.landmarks_B = lm;
+  auto cand = bim_candidates(sa, sb, o);
+  ASSERT_EQ(cand.size(), 1u);
+  const Eigen::VectorXd c = bim_confidence(sa, sb, cand[0].mobius);
+  const Eigen::MatrixXd X = bim_apply(sa, sb, cand[0].mobius);
+  const TriMesh& S = sa.mesh;
+  Eigen::VectorXd a0 = Eigen::VectorXd::Zero(S.num_vertices()), a1 = a0;
+  for (int f = 0; f < S.num_faces(); ++f) {
+    const Eigen::Vector3d p0 = S.V.row(S.F(f, 0)), p1 = S.V.row(S.F(f, 1)), p2 = S.V.row(S.F(f, 2));
+    const Eigen::Vector3d q0 = X.row(S.F(f, 0)), q1 = X.row(S.F(f, 1)), q2 = X.row(S.F(f, 2));
+    const double s = 0.5 * (p1 - p0).cross(p2 - p0).norm(), t = 0.5 * (q1 - q0).cross(q2 - q0).norm();
+    for (int k = 0; k < 3; ++k) {
+      a0(S.F(f, k)) += s;
+      a1(S.F(f, k)) += t;
+    }
+  }
+  double diff = 0, spread = 0;
+  for (size_t j = 0; j < sa.even.size(); ++j) {
+    const int v = sa.even[j];
+    const double r = a1(v) / a0(v);
+    diff += std::abs(c(Eigen::Index(j)) - 2.0 / (r + 1.0 / r));
+    spread += 1.0 - c(Eigen::Index(j));
+  }
+  diff /= double(sa.even.size());
+  spread /= double(sa.even.size());
+  std::printf("stretched pair: mean |c - c(one-ring)| %.4f, mean 1 - c %.4f\n", diff, spread);
+  EXPECT_GT(spread, 0.05);  // the map does distort area: the test discriminates
+  EXPECT_LT(diff, 0.25 * spread);
+}
