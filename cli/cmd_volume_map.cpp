@@ -20,12 +20,13 @@
 #include "shapemap/volume/symmetric_map.h"
 #include "shapemap/volume/tetrahedralize.h"
 #include <Eigen/Dense>
+#include <unistd.h>
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <iterator>
-#include <tuple>
 #include <memory>
-#include <unistd.h>
+#include <tuple>
 
 namespace shapemap::cli {
 
@@ -258,7 +259,9 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
           Dm.col(j) = (src.V.row(src.T(k, j + 1)) - src.V.row(src.T(k, 0))).transpose();
           Ds.col(j) = (X.row(src.T(k, j + 1)) - X.row(src.T(k, 0))).transpose();
         }
-        d(k) = Ds.determinant() / Dm.determinant();  // volume ratio (<= 0: inverted)
+        // Volume ratio (<= 0: inverted); 0 for a degenerate rest tet (up to 1% are accepted).
+        const double q = Ds.determinant() / Dm.determinant();
+        d(k) = std::isfinite(q) ? q : 0.0;
       }
       return d;
     };
