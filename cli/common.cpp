@@ -62,7 +62,8 @@ TetMesh tetrahedralize_input(const TriMesh& surface, const TetrahedralizeOptions
 namespace {
 // Temporary output folders of the running commands, removed when the process is
 // interrupted (SIGINT, SIGTERM, SIGHUP), so that an interrupted run leaves nothing behind.
-// Fixed slots, no allocation: the handler only reads them.
+// Fixed slots, no allocation in the handler (nftw is not async-signal-safe, but the
+// process ends right after). OutputDirs are made by the main thread only.
 constexpr int kTmpSlots = 8;
 char g_tmp_path[kTmpSlots][4096];
 std::atomic<bool> g_tmp_used[kTmpSlots];
@@ -82,12 +83,12 @@ int register_tmp(const std::string& path) {
     for (int sig : {SIGINT, SIGTERM, SIGHUP}) std::signal(sig, remove_tmp_and_reraise);
   });
   if (path.size() >= sizeof(g_tmp_path[0])) return -1;
-  for (int i = 0; i < kTmpSlots; ++i) {
-    bool expected = false;
-    if (!g_tmp_used[i].load() && std::strcpy(g_tmp_path[i], path.c_str()) &&
-        g_tmp_used[i].compare_exchange_strong(expected, true))
+  for (int i = 0; i < kTmpSlots; ++i)
+    if (!g_tmp_used[i].load()) {
+      std::strcpy(g_tmp_path[i], path.c_str());  // the path first, then the flag the handler reads
+      g_tmp_used[i].store(true);
       return i;
-  }
+    }
   return -1;
 }
 
