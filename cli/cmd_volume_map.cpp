@@ -220,6 +220,11 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
         if (a->surface_map_meshes.size() == 2) {
           SA = read_surface(a->surface_map_meshes[0]);
           SB = read_surface(a->surface_map_meshes[1]);
+          // Checked copies (closed, genus 0, a size that areas can represent): the maps
+          // refer to the faces as given.
+          TriMesh ca = SA, cb = SB;
+          require_genus0_surface(ca, a->surface_map_meshes[0]);
+          require_genus0_surface(cb, a->surface_map_meshes[1]);
         } else {
           SA = pick(inA, bA, sAB.size(), a->surface_map[0]);
           SB = pick(inB, bB, sBA.size(), a->surface_map[1]);

@@ -93,6 +93,14 @@ TEST(BadInputCli, SurfacesTheTetrahedralizerCannotMesh) {
   z.V.setZero();
   write_surface(t.p("z.obj"), z);
   expect_one_line_error(t, "surface-map " + t.p("z.obj") + " " + t.p("s.obj") + " -o " + t.p("m"), "z.obj");
+  // ... and as the surface a --surface-map was computed on.
+  ASSERT_EQ(shapemap::testing::run_quiet("tetrahedralize " + t.p("s.obj") + " --tets 1500 -o " + t.p("s.vtk")), 0);
+  std::ofstream(t.p("m.txt")) << "shapemap-map 1 1 3\n0 1 0 0\n";
+  expect_one_line_error(t, "volume-map " + t.p("s.vtk") + " " + t.p("s.vtk") + " -o " + t.p("v") + " --surface-map " +
+                               t.p("m.txt") + " " + t.p("m.txt") + " --surface-map-meshes " + t.p("z.obj") + " " +
+                               t.p("s.obj"),
+                        "z.obj");
+  EXPECT_FALSE(fs::exists(t.dir / "v"));
 }
 
 TEST(BadInputCli, NoPartialOutput) {
