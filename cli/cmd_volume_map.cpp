@@ -154,6 +154,14 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
     if ((!a->surface_map.empty() || !a->surface_map_meshes.empty()) && init != "surface-map")
       throw InputError(init_name + ": --surface-map/--surface-map-meshes are only used by --init surface-map");
 
+    // Map files are read (syntax) before the inputs, which may need tetrahedralizing first;
+    // they are checked against the meshes below.
+    BarycentricMap sAB, sBA;
+    if (init == "surface-map") {
+      sAB = read_map(a->surface_map[0]);
+      sBA = read_map(a->surface_map[1]);
+    }
+
     timer.start("load");
     VolumeInput inA = load_volume_input(a->A, "A", a->tets, progress, g);
     VolumeInput inB = load_volume_input(a->B, "B", a->tets, progress, g);
@@ -212,11 +220,8 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
         throw InputError(file + ": " + std::to_string(n) + " rows, but the boundary surface has " +
                          std::to_string(bd.surface.num_vertices()) + " vertices");
       };
-      BarycentricMap sAB, sBA;
       TriMesh SA, SB;
       if (init == "surface-map") {
-        sAB = read_map(a->surface_map[0]);
-        sBA = read_map(a->surface_map[1]);
         if (a->surface_map_meshes.size() == 2) {
           SA = read_surface(a->surface_map_meshes[0]);
           SB = read_surface(a->surface_map_meshes[1]);
