@@ -1,9 +1,11 @@
 // Runs the shapemap binary quietly with an argument string; returns its exit code
 // (-1 if it did not exit normally). Shared by the CLI tests.
 #pragma once
-#include <cstdlib>
-#include <string>
 #include <sys/wait.h>
+#include <unistd.h>
+#include <cstdlib>
+#include <filesystem>
+#include <string>
 
 namespace shapemap::testing {
 inline int run_quiet(const std::string& args) {
@@ -17,4 +19,18 @@ inline int run_stderr(const std::string& args, const std::string& err_file) {
   const int rc = std::system(cmd.c_str());
   return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
 }
+
+// A fresh folder under the system temp dir, removed with everything in it at scope exit.
+struct TempDir {
+  std::filesystem::path dir;
+  explicit TempDir(const std::string& tag) {
+    dir = std::filesystem::temp_directory_path() / ("shapemap_" + tag + "_" + std::to_string(::getpid()));
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+  }
+  ~TempDir() { std::filesystem::remove_all(dir); }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  std::string p(const std::string& f) const { return (dir / f).string(); }
+};
 }  // namespace shapemap::testing

@@ -8,22 +8,12 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
-#include <unistd.h>
 
 namespace fs = std::filesystem;
 using namespace shapemap;
 
 namespace {
-struct TempDir {
-  fs::path dir;
-  TempDir() {
-    dir = fs::temp_directory_path() / ("shapemap_bad_input_cli_" + std::to_string(::getpid()));
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-  }
-  ~TempDir() { fs::remove_all(dir); }
-  std::string p(const std::string& f) const { return (dir / f).string(); }
-};
+using shapemap::testing::TempDir;
 
 std::string slurp(const std::string& p) {
   std::ifstream f(p);
@@ -47,7 +37,7 @@ TriMesh make_sphere_file(const TempDir& t) {
 }  // namespace
 
 TEST(BadInputCli, OptionValuesOutOfRangeAreOneLineErrors) {
-  TempDir t;
+  TempDir t("bad_input_cli");
   make_sphere_file(t);
   // Thread, tet, iteration and frame counts that would crash or run for hours.
   expect_one_line_error(t, "--threads 100000 check " + t.p("s.obj"), "--threads");
@@ -70,7 +60,7 @@ TEST(BadInputCli, OptionValuesOutOfRangeAreOneLineErrors) {
 }
 
 TEST(BadInputCli, SurfacesTheTetrahedralizerCannotMesh) {
-  TempDir t;
+  TempDir t("bad_input_cli");
   const TriMesh s = make_sphere_file(t);
   // Too few tets asked for: CGAL produces none (it used to print a banner and exit 1).
   expect_one_line_error(t, "tetrahedralize " + t.p("s.obj") + " --tets 1 -o " + t.p("o.vtk"), "s.obj");
@@ -104,7 +94,7 @@ TEST(BadInputCli, SurfacesTheTetrahedralizerCannotMesh) {
 }
 
 TEST(BadInputCli, NoPartialOutput) {
-  TempDir t;
+  TempDir t("bad_input_cli");
   make_sphere_file(t);
   // A failing run creates none of the missing parent folders of OUT.
   expect_one_line_error(t, "ball " + t.p("nope.vtk") + " -o " + t.p("nd/a/b"), "nope.vtk");
@@ -124,7 +114,7 @@ TEST(BadInputCli, NoPartialOutput) {
 }
 
 TEST(BadInputCli, RepeatedLandmarks) {
-  TempDir t;
+  TempDir t("bad_input_cli");
   make_sphere_file(t);
   std::ofstream(t.p("dup.txt")) << "0\n5\n0\n9\n";
   expect_one_line_error(t, "surface-map " + t.p("s.obj") + " " + t.p("s.obj") + " -o " + t.p("m") + " --landmarks " +
@@ -138,7 +128,7 @@ TEST(BadInputCli, RepeatedLandmarks) {
 }
 
 TEST(BadInputCli, InterruptedRunLeavesNoTemporaryFolder) {
-  TempDir t;
+  TempDir t("bad_input_cli");
   make_sphere_file(t);
   // SIGTERM while the tetrahedralization of a 60k-tet ball runs (several seconds).
   const std::string cmd = "cd " + t.dir.string() + " && (" + std::string(SHAPEMAP_BINARY) +

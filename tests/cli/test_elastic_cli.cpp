@@ -11,7 +11,6 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
-#include <unistd.h>
 
 namespace fs = std::filesystem;
 using namespace shapemap;
@@ -22,23 +21,14 @@ nlohmann::json read_json(const fs::path& p) {
   std::ifstream in(p);
   return nlohmann::json::parse(in);
 }
-struct TempDir {
-  fs::path dir;
-  TempDir() {
-    dir = fs::temp_directory_path() / ("shapemap_elastic_cli_" + std::to_string(::getpid()));
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-  }
-  ~TempDir() { fs::remove_all(dir); }
-  std::string p(const std::string& f) const { return (dir / f).string(); }
-};
+using shapemap::testing::TempDir;
 bool finite_nonneg(const nlohmann::json& v) {
   return v.is_number() && std::isfinite(v.get<double>()) && v.get<double>() >= 0;
 }
 }  // namespace
 
 TEST(ElasticCli, SymmetricRunWritesOutputsAndEvaluateReportsSec61Metrics) {
-  TempDir t;
+  TempDir t("elastic_cli");
   ASSERT_EQ(run("generate --shape pair --kind non-isometric --vertices 1000 --seed 3 -o " + t.p("pair")), 0);
   const std::string A = t.p("pair/A.obj"), B = t.p("pair/B.obj");
   // The first 60 outer iterations of the default schedule (beta ramp over 200) keep the
@@ -103,7 +93,7 @@ TEST(ElasticCli, SymmetricRunWritesOutputsAndEvaluateReportsSec61Metrics) {
 }
 
 TEST(BimCli, ReportHasTheMapMetricsAndTheGeodesicErrorWithTruth) {
-  TempDir t;
+  TempDir t("elastic_cli");
   ASSERT_EQ(run("generate --shape pair --kind near-isometric --vertices 1000 --seed 2 -o " + t.p("pair")), 0);
   const std::string A = t.p("pair/A.obj"), B = t.p("pair/B.obj"), truth = t.p("pair/truth_AB.txt");
   ASSERT_EQ(run("surface-map " + A + " " + B + " -o " + t.p("bim") + " --method bim --symmetric --truth " + truth), 0);

@@ -14,6 +14,21 @@ Eigen::Matrix3d test_rotation() {
           Eigen::AngleAxisd(1.9, Eigen::Vector3d::UnitZ()))
       .toRotationMatrix();
 }
+
+// A and B with the same numbering, prepared with three FPS landmarks of A as the features
+// of both: exactly one candidate Möbius map.
+struct LandmarkCandidate {
+  BIMSurface sa, sb;
+  std::vector<BIMCandidate> cand;
+};
+LandmarkCandidate three_landmark_candidate(const TriMesh& A, const TriMesh& B) {
+  BIMOptions o;
+  std::vector<int> lm = farthest_point_sampling_graph(A.V, A.F, 3, 0);
+  LandmarkCandidate r{bim_prepare(A, "A", o, lm), bim_prepare(B, "B", o, lm), {}};
+  o.landmarks_A = o.landmarks_B = lm;
+  r.cand = bim_candidates(r.sa, r.sb, o);
+  return r;
+}
 }  // namespace
 
 TEST(Bim, MobiusCandidateRecoversRotation) {
@@ -21,11 +36,9 @@ TEST(Bim, MobiusCandidateRecoversRotation) {
   TriMesh B = A;
   Eigen::Matrix3d R = test_rotation();
   B.V = A.V * R.transpose();
-  BIMOptions o;
-  std::vector<int> lm = farthest_point_sampling_graph(A.V, A.F, 3, 0);
-  BIMSurface sa = bim_prepare(A, "A", o, lm), sb = bim_prepare(B, "B", o, lm);
-  o.landmarks_A = o.landmarks_B = lm;
-  auto cand = bim_candidates(sa, sb, o);
+  const LandmarkCandidate lc = three_landmark_candidate(A, B);
+  const BIMSurface &sa = lc.sa, &sb = lc.sb;
+  const auto& cand = lc.cand;
   ASSERT_EQ(cand.size(), 1u);
   Eigen::MatrixXd P = bim_apply(sa, sb, cand[0].mobius);  // normalized frame of B
   Eigen::MatrixXd truth = sb.mesh.V;                     // same vertex numbering
@@ -113,11 +126,9 @@ TEST(Bim, ConfidenceMatchesTheOneRingAreaRatioOnAStretchedPair) {
   TriMesh A = make_sphere(2500);
   TriMesh B = A;
   B.V = A.V * Eigen::Vector3d(1.6, 0.8, 0.5).asDiagonal();  // same numbering
-  BIMOptions o;
-  std::vector<int> lm = farthest_point_sampling_graph(A.V, A.F, 3, 0);
-  BIMSurface sa = bim_prepare(A, "A", o, lm), sb = bim_prepare(B, "B", o, lm);
-  o.landmarks_A = o.landmarks_B = lm;
-  auto cand = bim_candidates(sa, sb, o);
+  const LandmarkCandidate lc = three_landmark_candidate(A, B);
+  const BIMSurface &sa = lc.sa, &sb = lc.sb;
+  const auto& cand = lc.cand;
   ASSERT_EQ(cand.size(), 1u);
   const Eigen::VectorXd c = bim_confidence(sa, sb, cand[0].mobius);
   const Eigen::MatrixXd X = bim_apply(sa, sb, cand[0].mobius);
