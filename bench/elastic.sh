@@ -3,7 +3,8 @@
 # bijective run, time per outer iteration split projection/deformation) and quality
 # against the BIM initialization over >= 10 seeds of generated non-isometric pairs.
 # Usage: bench/elastic.sh [BUILD_DIR]   (needs test_surface built in BUILD_DIR)
-# Environment: SHAPEMAP_ELASTIC_SEEDS, SHAPEMAP_ELASTIC_VERTICES, SHAPEMAP_ELASTIC_SPEED_VERTICES.
+# Environment: SHAPEMAP_ELASTIC_SEEDS, SHAPEMAP_ELASTIC_VERTICES, SHAPEMAP_ELASTIC_SPEED_VERTICES,
+# SHAPEMAP_ELASTIC_ETA (default: the tool's auto choice of Sec. 5.2, see docs/methods.md).
 set -euo pipefail
 BUILD="${1:-build}"
 exec "$BUILD/test_surface" --gtest_also_run_disabled_tests --gtest_filter='ElasticBench.*'

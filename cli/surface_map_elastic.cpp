@@ -22,9 +22,11 @@ namespace fs = std::filesystem;
 
 void add_elastic_options(CLI::App* app, ElasticCliOptions& o) {
   app->add_option("--elastic-preset", o.preset,
-                  "elastic: bending weight preset (Sec. 5.2/6.1): non-isometric (eta 0.1), "
-                  "near-isometric (0.01), degenerate (0.002, for degenerate initial maps)")
-      ->check(CLI::IsMember({"non-isometric", "near-isometric", "degenerate"}));
+                  "elastic: bending weight preset (Sec. 5.2/6.1): auto (default: degenerate if the "
+                  "initial maps have flipped or collapsed triangles, as Sec. 5.2 advises, else "
+                  "non-isometric), non-isometric (eta 0.1), near-isometric (0.01), degenerate "
+                  "(0.002, for degenerate initial maps)")
+      ->check(CLI::IsMember({"auto", "non-isometric", "near-isometric", "degenerate"}));
   app->add_option("--elastic-eta", o.eta, "elastic: bending weight eta (Eq. 2), overrides the preset")
       ->check(non_negative());
   app->add_option("--elastic-alpha", o.alpha, "elastic: membrane weight alpha (Eq. 2)")
@@ -158,7 +160,18 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
   ElasticOptions eo;
   if (o.preset == "near-isometric") eo = ElasticOptions::near_isometric();
   else if (o.preset == "degenerate") eo = ElasticOptions::degenerate_init();
-  if (o.eta >= 0) eo.eta = o.eta;
+  std::string eta_choice = o.preset;
+  if (o.eta >= 0) {
+    eo.eta = o.eta;
+    eta_choice = "--elastic-eta";
+  } else if (o.preset == "auto") {
+    const BendingWeightChoice c =
+        bending_weight_for_initial_maps(A, B, initAB, bij ? initBA : BarycentricMap{}, eo.eta);
+    eo.eta = c.eta;
+    eta_choice = "auto: " + std::to_string(c.flipped) + " flipped and " + std::to_string(c.degenerate) +
+                 " collapsed triangles in the initial maps -> " +
+                 (c.flipped + c.degenerate > 0 ? "degenerate (Sec. 5.2)" : "non-isometric");
+  }
   eo.alpha = o.alpha;
   eo.max_outer_iterations = o.iterations;
   eo.model = bij ? ElasticModel::Bijective : ElasticModel::Injective;
@@ -178,7 +191,8 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
   if (has_truth) report["inputs"]["truth"] = o.truth_ab;
   report["init"] = init_kind;
   report["parameters"] = {{"model", bij ? "bijective (Eq. 6)" : "injective (Eq. 4)"},
-                          {"alpha", eo.alpha}, {"eta", eo.eta}, {"lambda", eo.lambda},
+                          {"alpha", eo.alpha}, {"eta", eo.eta}, {"eta_choice", eta_choice},
+                          {"lambda", eo.lambda},
                           {"mu", eo.mu}, {"log_eps", eo.log_eps},
                           {"beta_start", eo.beta_start}, {"beta_end", eo.beta_end},
                           {"beta_ramp_iterations", eo.beta_ramp_iterations},

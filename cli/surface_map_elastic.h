@@ -11,7 +11,7 @@
 namespace shapemap::cli {
 
 struct ElasticCliOptions {
-  std::string preset = "non-isometric";  // non-isometric (eta 0.1) | near-isometric (0.01) | degenerate (0.002)
+  std::string preset = "auto";  // auto | non-isometric (eta 0.1) | near-isometric (0.01) | degenerate (0.002)
   double eta = -1;                       // overrides the preset's bending weight (Eq. 2)
   double alpha = 20;                     // membrane weight (Eq. 2)
   int iterations = 300;                  // K, outer iterations (Algorithm 1)

@@ -1,5 +1,6 @@
 // Elastic correspondence, Algorithm 1 (Eq. 4, 6). See elastic.h and docs/methods.md.
 #include "shapemap/surface/elastic.h"
+#include "shapemap/eval/surface_distortion.h"
 
 #include "shapemap/error.h"
 #include "shapemap/geometry/closest_point.h"
@@ -527,6 +528,23 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
   }
   res.time_total = seconds_since(t_start);
   return res;
+}
+
+BendingWeightChoice bending_weight_for_initial_maps(const TriMesh& A, const TriMesh& B,
+                                                    const BarycentricMap& P,
+                                                    const BarycentricMap& Q,
+                                                    double eta_clean) {
+  BendingWeightChoice c;
+  const SurfaceDistortion dp = surface_distortion(A, B, P);
+  c.flipped = dp.flipped;
+  c.degenerate = dp.degenerate;
+  if (Q.size() > 0) {
+    const SurfaceDistortion dq = surface_distortion(B, A, Q);
+    c.flipped += dq.flipped;
+    c.degenerate += dq.degenerate;
+  }
+  c.eta = c.flipped + c.degenerate > 0 ? ElasticOptions::degenerate_init().eta : eta_clean;
+  return c;
 }
 
 double elastic_energy(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F,

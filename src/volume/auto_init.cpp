@@ -23,6 +23,8 @@ std::pair<BarycentricMap, BarycentricMap> surface_map_for_volumes(const TriMesh&
   if (!elastic_refinement) return maps;
   ElasticOptions eo;
   eo.progress = progress;
+  // BIM maps have flipped triangles: Sec. 5.2's smaller bending weight (elastic.h).
+  eo.eta = bending_weight_for_initial_maps(SA, SB, bim.AB.map, bim.BA.map, eo.eta).eta;
   try {
     ElasticResult el = elastic_correspondence(SA, SB, bim.AB.map, bim.BA.map, eo);
     if (el.map_AB.size() == SA.num_vertices() && el.map_BA.size() == SB.num_vertices()) {

@@ -295,3 +295,25 @@ TEST(Elastic, ReportedEnergyIsEq6AtTheReturnedMaps) {
     else EXPECT_EQ(t.reversibility, 0.0);
   }
 }
+
+// Sec. 5.2's rule for eta: the smaller (degenerate-map) bending weight exactly when the
+// initial maps have flipped or collapsed triangles. The identity has none; a mirror image
+// (x -> -x, projected back onto the surface) turns every triangle over.
+TEST(Elastic, BendingWeightFollowsTheFlipsOfTheInitialMaps) {
+  const TriMesh A = bumpy_sphere(10, 14, 0.1, 0.0);
+  const BarycentricMap I = identity_map(A);
+  BendingWeightChoice c = bending_weight_for_initial_maps(A, A, I, I, 0.1);
+  EXPECT_EQ(c.flipped, 0);
+  EXPECT_EQ(c.degenerate, 0);
+  EXPECT_EQ(c.eta, 0.1);
+  Eigen::MatrixXd M = A.V;
+  M.col(0) *= -1;
+  const BarycentricMap mirror = project(M, A);
+  c = bending_weight_for_initial_maps(A, A, mirror, BarycentricMap{}, 0.1);
+  EXPECT_GT(c.flipped, A.num_faces() / 2);
+  EXPECT_EQ(c.eta, ElasticOptions::degenerate_init().eta);
+  // Q counts too: a clean P with a flipped Q still gets the smaller weight.
+  c = bending_weight_for_initial_maps(A, A, I, mirror, 0.1);
+  EXPECT_GT(c.flipped, 0);
+  EXPECT_EQ(c.eta, 0.002);
+}

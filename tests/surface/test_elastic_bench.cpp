@@ -28,6 +28,12 @@ int env_int(const char* name, int def) {
   const char* v = std::getenv(name);
   return v ? std::atoi(v) : def;
 }
+// The bending weight of the tool's default (`--elastic-preset auto`, Sec. 5.2's rule on the
+// initial maps), or SHAPEMAP_ELASTIC_ETA when set (e.g. 0.1, the non-isometric preset).
+double default_eta(const GeneratedPair& pair, const BIMResult& bim) {
+  if (const char* v = std::getenv("SHAPEMAP_ELASTIC_ETA")) return std::atof(v);
+  return bending_weight_for_initial_maps(pair.A, pair.B, bim.AB.map, bim.BA.map).eta;
+}
 double now() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
@@ -43,6 +49,8 @@ TEST(ElasticBench, DISABLED_Speed5k) {
   const double t_bim = now() - t0;
   ElasticOptions o;
   o.lbfgs_warm_start = env_int("SHAPEMAP_ELASTIC_WARM_START", 1) != 0;
+  o.eta = default_eta(pair, bim);
+  if (const char* v = std::getenv("SHAPEMAP_ELASTIC_ENERGY_TOL")) o.energy_tol = std::atof(v);
   t0 = now();
   const std::clock_t c0 = std::clock();
   ElasticResult r = elastic_correspondence(pair.A, pair.B, bim.AB.map, bim.BA.map, o);
@@ -50,8 +58,8 @@ TEST(ElasticBench, DISABLED_Speed5k) {
   const double cpu_el = double(std::clock() - c0) / CLOCKS_PER_SEC;
   const int K = std::max(1, r.outer_iterations);
   std::printf("elastic speed: A %d vertices, B %d vertices, BIM %.2f s, elastic %.2f s wall, "
-              "%.2f s CPU (all threads) (setup %.3f s, %d outer iterations, converged %d)\n",
-              pair.A.num_vertices(), pair.B.num_vertices(), t_bim, t_el, cpu_el, r.time_setup,
+              "%.2f s CPU (all threads) (eta %g, setup %.3f s, %d outer iterations, converged %d)\n",
+              pair.A.num_vertices(), pair.B.num_vertices(), t_bim, t_el, cpu_el, o.eta, r.time_setup,
               r.outer_iterations, int(r.converged));
   std::printf("  per outer iteration: %.4f s = projection %.4f s + deformation %.4f s\n",
               (r.time_projection + r.time_deformation) / K, r.time_projection / K,
@@ -94,6 +102,7 @@ TEST(ElasticBench, DISABLED_QualityVsBim) {
     const double t0 = now();
     ElasticOptions o;
     o.lbfgs_warm_start = env_int("SHAPEMAP_ELASTIC_WARM_START", 1) != 0;
+    o.eta = default_eta(pair, bim);
     ElasticResult r = elastic_correspondence(pair.A, pair.B, bim.AB.map, bim.BA.map, o);
     int inner = 0;
     for (const auto& it : r.history) inner += it.inner_iterations;
@@ -114,8 +123,8 @@ TEST(ElasticBench, DISABLED_QualityVsBim) {
                 s, pair.A.num_vertices(), pair.B.num_vertices(), d0.conformal_mean,
                 d1.conformal_mean, d0.area_mean_abs, d1.area_mean_abs, d0.mean_curvature_error,
                 d1.mean_curvature_error, g0, g1, d0.flipped, d1.flipped, t);
-    std::printf("     outer iterations %d, L-BFGS iterations per outer %.1f, degenerate faces %d -> %d\n",
-                r.outer_iterations, double(inner) / std::max(1, r.outer_iterations),
+    std::printf("     eta %g, outer iterations %d, L-BFGS iterations per outer %.1f, degenerate faces %d -> %d\n",
+                o.eta, r.outer_iterations, double(inner) / std::max(1, r.outer_iterations),
                 r.degenerate_faces_initial, r.degenerate_faces_final);
     std::fflush(stdout);
   }

@@ -115,6 +115,23 @@ double elastic_energy(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F,
                       double gamma, const ShellEnergyOptions& shell, Eigen::MatrixXd* gY = nullptr,
                       Eigen::MatrixXd* gYt = nullptr, ElasticEnergyTerms* terms = nullptr);
 
+// The bending weight eta for given initial maps (Sec. 5.2, "eta"): "if flipped, or nearly
+// degenerate, triangles appear in the initial map, eta should have a smaller value, to allow
+// the membrane energy to recover a smooth map". Returns the degenerate-initial-map preset
+// (ElasticOptions::degenerate_init().eta = 0.002) when P: A -> B, or Q: B -> A if given
+// (non-empty), maps some triangle to a flipped or collapsed one (the counts of
+// eval/surface_distortion.h, as reported in the initial metrics), else eta_clean (the
+// non-isometric default 0.1). BIM maps of a few thousand vertices almost always have some.
+struct BendingWeightChoice {
+  double eta = 0;
+  int flipped = 0;     // flipped triangles of P (+ Q)
+  int degenerate = 0;  // collapsed triangles of P (+ Q)
+};
+BendingWeightChoice bending_weight_for_initial_maps(const TriMesh& A, const TriMesh& B,
+                                                    const BarycentricMap& P,
+                                                    const BarycentricMap& Q,
+                                                    double eta_clean = 0.1);
+
 // Landmark-driven initial maps (docs/methods.md, "Elastic correspondence"): BIM
 // restricted to the given correspondences: the feature points of both surfaces are the
 // landmarks, the candidate Mobius maps are all triplets of corresponding landmarks
