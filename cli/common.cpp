@@ -2,11 +2,13 @@
 #include "shapemap/error.h"
 #include "shapemap/io.h"
 #include "shapemap/render/report_html.h"
-#include <ftw.h>
+#include <fcntl.h>
+#include <sys/syscall.h>
 #include <omp.h>
 #include <sys/stat.h>
 #include <unistd.h>
 #include <atomic>
+#include <cerrno>
 #include <csignal>
 #include <cstdio>
 #include <cstring>
@@ -62,25 +64,79 @@ TetMesh tetrahedralize_input(const TriMesh& surface, const TetrahedralizeOptions
 namespace {
 // Temporary output folders of the running commands, removed when the process is
 // interrupted (SIGINT, SIGTERM, SIGHUP), so that an interrupted run leaves nothing behind.
-// Fixed slots, no allocation in the handler (nftw is not async-signal-safe, but the
-// process ends right after). OutputDirs are made by the main thread only.
+// The handler may interrupt any code, malloc included (a SIGTERM during CGAL's meshing
+// deadlocked on the allocator's lock when the handler used nftw), so it uses only
+// async-signal-safe calls (open, getdents64, unlinkat, close) and static buffers.
+// OutputDirs are made by the main thread only.
 constexpr int kTmpSlots = 8;
 char g_tmp_path[kTmpSlots][4096];
 std::atomic<bool> g_tmp_used[kTmpSlots];
 
-int remove_entry(const char* path, const struct stat*, int, struct FTW*) { return ::remove(path); }
+constexpr int kMaxDepth = 8;  // output folders are at most a few levels deep
+alignas(8) char g_dirents[kMaxDepth][8192];
+
+struct LinuxDirent64 {  // the record getdents64 writes
+  unsigned long long d_ino;
+  long long d_off;
+  unsigned short d_reclen;
+  unsigned char d_type;
+  char d_name[1];
+};
+
+// Removes everything inside the open directory dfd. Entries are removed while the
+// directory is read, so it is read again from the start until a pass removes nothing.
+void remove_contents(int dfd, int depth) {
+  for (bool progress = true; progress;) {
+    progress = false;
+    ::lseek(dfd, 0, SEEK_SET);
+    for (;;) {
+      const long n = ::syscall(SYS_getdents64, dfd, g_dirents[depth], sizeof(g_dirents[depth]));
+      if (n <= 0) break;
+      for (long off = 0; off < n;) {
+        const auto* d = reinterpret_cast<const LinuxDirent64*>(g_dirents[depth] + off);
+        off += d->d_reclen;
+        const char* name = d->d_name;
+        if (name[0] == '.' && (name[1] == 0 || (name[1] == '.' && name[2] == 0))) continue;
+        if (::unlinkat(dfd, name, 0) == 0) {
+          progress = true;
+          continue;
+        }
+        if (depth + 1 >= kMaxDepth) continue;
+        const int sub = ::openat(dfd, name, O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+        if (sub < 0) continue;
+        remove_contents(sub, depth + 1);
+        ::close(sub);
+        if (::unlinkat(dfd, name, AT_REMOVEDIR) == 0) progress = true;
+      }
+    }
+  }
+}
 
 extern "C" void remove_tmp_and_reraise(int sig) {
-  for (int i = 0; i < kTmpSlots; ++i)
-    if (g_tmp_used[i].load()) ::nftw(g_tmp_path[i], remove_entry, 16, FTW_DEPTH | FTW_PHYS);
-  std::signal(sig, SIG_DFL);
-  std::raise(sig);
+  const int saved_errno = errno;
+  for (int i = 0; i < kTmpSlots; ++i) {
+    if (!g_tmp_used[i].load()) continue;
+    const int fd = ::open(g_tmp_path[i], O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+    if (fd < 0) continue;
+    remove_contents(fd, 0);
+    ::close(fd);
+    ::rmdir(g_tmp_path[i]);
+  }
+  errno = saved_errno;
+  // Default action on return: the signal is blocked in its handler, so raise() leaves it
+  // pending until then, and the process ends with the signal's status.
+  ::signal(sig, SIG_DFL);
+  ::raise(sig);
 }
 
 int register_tmp(const std::string& path) {
   static std::once_flag handlers;
   std::call_once(handlers, [] {
-    for (int sig : {SIGINT, SIGTERM, SIGHUP}) std::signal(sig, remove_tmp_and_reraise);
+    struct sigaction sa {};
+    sa.sa_handler = remove_tmp_and_reraise;
+    sigemptyset(&sa.sa_mask);  // the other two wait while one handler removes the folders
+    for (int sig : {SIGINT, SIGTERM, SIGHUP}) sigaddset(&sa.sa_mask, sig);
+    for (int sig : {SIGINT, SIGTERM, SIGHUP}) ::sigaction(sig, &sa, nullptr);
   });
   if (path.size() >= sizeof(g_tmp_path[0])) return -1;
   for (int i = 0; i < kTmpSlots; ++i)

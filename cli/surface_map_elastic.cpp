@@ -112,6 +112,7 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
   BarycentricMap initAB, initBA;
   std::string init_kind;
   const bool bij = !o.injective;
+  bool q_given = true;  // false: initBA made below from initAB by closest point
   if (!args.landmarks.empty()) {
     if (args.landmarks.size() != 2) throw InputError("--landmarks: expected two files LA LB");
     const std::vector<int> la = read_landmarks(args.landmarks[0], A.V);
@@ -146,12 +147,14 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
       init_kind = "files " + ab + ", " + ba;
     } else {
       initBA = invert_map(initAB, A, B);
+      q_given = false;
       init_kind = "file " + ab + " (B->A by closest point on the mapped surface)";
     }
   } else {
     if (!fs::exists(args.init)) throw InputError(args.init + ": no such file (--init bim|FILE)");
     initAB = read_checked_map(args.init, A.num_vertices(), B.num_faces());
     initBA = invert_map(initAB, A, B);
+    q_given = false;
     init_kind = "file " + args.init + " (B->A by closest point on the mapped surface)";
   }
 
@@ -165,8 +168,10 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
     eo.eta = o.eta;
     eta_choice = "--elastic-eta";
   } else if (o.preset == "auto") {
-    const BendingWeightChoice c =
-        bending_weight_for_initial_maps(A, B, initAB, bij ? initBA : BarycentricMap{}, eo.eta);
+    // A Q made here by closest point (no map_BA.txt given) is not an initial map of the
+    // user's: only P and a given or BIM-computed Q count.
+    const BendingWeightChoice c = bending_weight_for_initial_maps(
+        A, B, initAB, bij && q_given ? initBA : BarycentricMap{}, eo.eta);
     eo.eta = c.eta;
     eta_choice = "auto: " + std::to_string(c.flipped) + " flipped and " + std::to_string(c.degenerate) +
                  " collapsed triangles in the initial maps -> " +

@@ -8,6 +8,8 @@
 #include "shapemap/surface/elastic.h"
 #include "shapemap/volume/symmetric_map.h"
 
+#include <sstream>
+
 namespace shapemap {
 
 std::pair<BarycentricMap, BarycentricMap> surface_map_for_volumes(const TriMesh& SA,
@@ -23,13 +25,17 @@ std::pair<BarycentricMap, BarycentricMap> surface_map_for_volumes(const TriMesh&
   if (!elastic_refinement) return maps;
   ElasticOptions eo;
   eo.progress = progress;
-  // BIM maps have flipped triangles: Sec. 5.2's smaller bending weight (elastic.h).
-  eo.eta = bending_weight_for_initial_maps(SA, SB, bim.AB.map, bim.BA.map, eo.eta).eta;
   try {
+    // BIM maps usually have flipped triangles: Sec. 5.2's smaller bending weight (elastic.h).
+    eo.eta = bending_weight_for_initial_maps(SA, SB, bim.AB.map, bim.BA.map, eo.eta).eta;
     ElasticResult el = elastic_correspondence(SA, SB, bim.AB.map, bim.BA.map, eo);
     if (el.map_AB.size() == SA.num_vertices() && el.map_BA.size() == SB.num_vertices()) {
       maps = {el.map_AB, el.map_BA};
-      if (used) *used = "BIM + elastic";
+      if (used) {
+        std::ostringstream s;
+        s << "BIM + elastic (eta " << eo.eta << ", Sec. 5.2 rule)";
+        *used = s.str();
+      }
     }
   } catch (const Error&) {
     // Elastic refinement failed internally: keep the BIM maps (reported through `used`).

@@ -271,6 +271,7 @@ TEST(Elastic, ReportedEnergyIsEq6AtTheReturnedMaps) {
     o.model = model;
     o.max_outer_iterations = 6;
     o.beta_ramp_iterations = 4;
+    o.energy_tol = 0;  // always six iterations
     const ElasticResult r = elastic_correspondence(pair.A, pair.B, initAB, bij ? initBA : BarycentricMap{}, o);
     ASSERT_EQ(int(r.history.size()), 6);
     const ElasticIterate& last = r.history.back();
@@ -315,5 +316,17 @@ TEST(Elastic, BendingWeightFollowsTheFlipsOfTheInitialMaps) {
   // Q counts too: a clean P with a flipped Q still gets the smaller weight.
   c = bending_weight_for_initial_maps(A, A, I, mirror, 0.1);
   EXPECT_GT(c.flipped, 0);
+  EXPECT_EQ(c.eta, 0.002);
+  // A collapsed triangle alone: the three corners of a face away from the poles sent to
+  // its centroid (each moves about half an edge, so no neighbour turns over).
+  BarycentricMap squash = I;
+  const int f0 = A.num_faces() / 2;
+  for (int j = 0; j < 3; ++j) {
+    squash.elem(A.F(f0, j)) = f0;
+    squash.bary.row(A.F(f0, j)).setConstant(1.0 / 3.0);
+  }
+  c = bending_weight_for_initial_maps(A, A, squash, BarycentricMap{}, 0.1);
+  EXPECT_EQ(c.flipped, 0);
+  EXPECT_GT(c.degenerate, 0);
   EXPECT_EQ(c.eta, 0.002);
 }
