@@ -642,22 +642,32 @@ SymmetricVolumeMapResult symmetric_volume_map(const TetMesh& A, const TetMesh& B
   auto vv1 = vertex_neighbors(M1.T, n1), vv2 = vertex_neighbors(M2.T, n2);
   auto vt1 = vertex_elements(M1.T, n1), vt2 = vertex_elements(M2.T, n2);
   // Stages 3 and 5: ARAP only on the neighbourhood of inverted tets (Sec. 5.3).
-  auto repair = [&](const std::string& name, int rings, int steps, int rounds) {
+  // fallback_rings > rings: rounds on that wider neighbourhood when the first ones leave
+  // inverted tets, and the stage is undone (per direction) unless it lowered their number
+  // (stage 5 only, see SymmetricVolumeMapOptions::post_repair_fallback_rings).
+  auto repair = [&](const std::string& name, int rings, int steps, int rounds, int fallback_rings) {
     SymmetricMapStage st;
     st.name = name;
     auto t0 = Clock::now();
     for (int dir = 0; dir < 2; ++dir) {
       const ArapEnergy& arap = dir == 0 ? e12.arap() : e21.arap();
       Eigen::MatrixXd& X = dir == 0 ? X12 : X21;
-      for (int round = 0; round < rounds; ++round) {
+      // Stage 5 must not leave more inverted tets than it found (ARAP alone does not keep
+      // tets positive: moving the corners of one inverted tet can turn its neighbours over).
+      const Eigen::MatrixXd X_start = fallback_rings > 0 ? X : Eigen::MatrixXd();
+      const int inverted_start = fallback_rings > 0 ? count_inverted(arap, X) : 0;
+      const int total_rounds = fallback_rings > rings ? 2 * rounds : rounds;
+      for (int round = 0; round < total_rounds; ++round) {
         std::vector<int> verts, tets;
-        inverted_neighbourhood(arap, X, rings, dir == 0 ? vv1 : vv2, dir == 0 ? vt1 : vt2, verts,
-                               tets);
+        inverted_neighbourhood(arap, X, round < rounds ? rings : fallback_rings,
+                               dir == 0 ? vv1 : vv2, dir == 0 ? vt1 : vt2, verts, tets);
         if (verts.empty()) break;
         auto f = [&](const Eigen::MatrixXd& Y, Eigen::MatrixXd* g) { return arap.energy(Y, tets, g); };
         LbfgsResult r = minimize_rows(f, X, verts, steps, opt.lbfgs_memory);
         st.iterations += r.iterations;
       }
+      if (fallback_rings > 0 && inverted_start > 0 && count_inverted(arap, X) >= inverted_start)
+        X = X_start;
     }
     set_weights(opt.alpha, beta, opt.gamma);
     st.energy = e12.evaluate(X12) + e21.evaluate(X21);
@@ -680,9 +690,10 @@ SymmetricVolumeMapResult symmetric_volume_map(const TetMesh& A, const TetMesh& B
     res.stages.push_back(st);
   }
   if (opt.fix_boundary_first) optimize("boundary-fixed", true);        // stage 2
-  repair("repair", opt.repair_rings, opt.repair_iterations, 1);         // stage 3
+  repair("repair", opt.repair_rings, opt.repair_iterations, 1, 0);      // stage 3
   optimize("full", false);                                              // stage 4
-  repair("post-repair", 0, opt.post_repair_steps, opt.post_repair_rounds);  // stage 5
+  repair("post-repair", 0, opt.post_repair_steps, opt.post_repair_rounds,
+         opt.post_repair_fallback_rings);                               // stage 5
 
   // Final energies (Eq. 25 terms), unit-volume frame.
   set_weights(opt.alpha, beta, opt.gamma);

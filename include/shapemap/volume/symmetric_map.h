@@ -49,6 +49,10 @@ struct SymmetricVolumeMapOptions {
   int repair_rings = 1;        // Sec. 5.3: 1-ring neighbourhood of inverted tets' vertices
   int post_repair_steps = 100; // Sec. 5.4 stage 5: at most 100 L-BFGS steps ...
   int post_repair_rounds = 5;  // ... per round, rounds while inversions remain (ref. code: 5)
+  // Ours: when those rounds (vertices of inverted tets only) leave inverted tets, as many
+  // rounds again on this many rings around them (stage 3's neighbourhood), and stage 5 is
+  // undone per direction unless it lowered the inverted count; 0 = off (the paper's stage).
+  int post_repair_fallback_rings = 1;
   bool fix_boundary_first = true;  // Algorithm 1 lines 6-10 (stage 2): boundary of X fixed,
                                    // boundary rows of P restored each iteration
   bool boundary_to_boundary = false;  // Sec. 5.2: hard constraint P in P*_ij (boundary rows
