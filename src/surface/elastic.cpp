@@ -433,12 +433,7 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
   b.F = B.F;
   a.mass = lumped_areas(a.X, a.F);
   b.mass = lumped_areas(b.X, b.F);
-  ShellEnergyOptions so;
-  so.eta = opt.eta;
-  so.lambda = opt.lambda;
-  so.mu = opt.mu;
-  so.log_eps = opt.log_eps;
-  so.degenerate_tol = opt.degenerate_tol;
+  ShellEnergyOptions so = shell_energy_options(opt);
   so.alpha = alphaA;
   a.shell = ShellEnergy(a.X, a.F, so);
   so.alpha = alphaB;
@@ -528,6 +523,17 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
   }
   res.time_total = seconds_since(t_start);
   return res;
+}
+
+ShellEnergyOptions shell_energy_options(const ElasticOptions& opt) {
+  ShellEnergyOptions so;
+  so.alpha = opt.alpha;
+  so.eta = opt.eta;
+  so.lambda = opt.lambda;
+  so.mu = opt.mu;
+  so.log_eps = opt.log_eps;
+  so.degenerate_tol = opt.degenerate_tol;
+  return so;
 }
 
 BendingWeightChoice bending_weight_for_initial_maps(const TriMesh& A, const TriMesh& B,

@@ -654,8 +654,8 @@ SymmetricVolumeMapResult symmetric_volume_map(const TetMesh& A, const TetMesh& B
       Eigen::MatrixXd& X = dir == 0 ? X12 : X21;
       // Stage 5 must not leave more inverted tets than it found (ARAP alone does not keep
       // tets positive: moving the corners of one inverted tet can turn its neighbours over).
-      const Eigen::MatrixXd X_start = fallback_rings > 0 ? X : Eigen::MatrixXd();
       const int inverted_start = fallback_rings > 0 ? count_inverted(arap, X) : 0;
+      const Eigen::MatrixXd X_start = inverted_start > 0 ? X : Eigen::MatrixXd();
       const int total_rounds = fallback_rings > rings ? 2 * rounds : rounds;
       for (int round = 0; round < total_rounds; ++round) {
         std::vector<int> verts, tets;

@@ -275,13 +275,7 @@ TEST(Elastic, ReportedEnergyIsEq6AtTheReturnedMaps) {
     const ElasticResult r = elastic_correspondence(pair.A, pair.B, initAB, bij ? initBA : BarycentricMap{}, o);
     ASSERT_EQ(int(r.history.size()), 6);
     const ElasticIterate& last = r.history.back();
-    ShellEnergyOptions so;
-    so.alpha = o.alpha;
-    so.eta = o.eta;
-    so.lambda = o.lambda;
-    so.mu = o.mu;
-    so.log_eps = o.log_eps;
-    so.degenerate_tol = o.degenerate_tol;
+    const ShellEnergyOptions so = shell_energy_options(o);
     const Eigen::MatrixXd Y = nb.apply(r.Y);
     const Eigen::MatrixXd Yt = bij ? na.apply(r.Ytilde) : Eigen::MatrixXd(X);
     ElasticEnergyTerms t;

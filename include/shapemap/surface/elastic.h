@@ -108,6 +108,9 @@ struct ElasticEnergyTerms {
   double total = 0, deformation = 0, mismatch = 0, reversibility = 0;
 };
 struct ShellEnergyOptions;
+// The shell options (alpha, eta, lambda, mu, log_eps, degenerate_tol) of W_def in `opt`, as
+// Algorithm 1 uses them (partial matching then rescales alpha per surface).
+ShellEnergyOptions shell_energy_options(const ElasticOptions& opt);
 double elastic_energy(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F,
                       const Eigen::MatrixXd& Xt, const Eigen::MatrixXi& Ft,
                       const BarycentricMap& P, const BarycentricMap& Q,
