@@ -153,7 +153,7 @@ const std::vector<std::pair<std::string, std::vector<Pick>>>& metric_table() {
         {"report", "/d_phi_relative_to_bbox_diagonal", "d_phi_relative"},
         {"report", "/metrics/n_inv", "n_inv"},
         {"report", "/metrics/d_avg_hat", "d_avg_hat"},
-        {"report", "/vertices_outside_ball_mesh", "vertices_outside_ball_mesh"}}},
+        {"report", "/located_AB/interior_outside_ball_mesh", "interior_outside_ball_mesh"}}},
   };
   return t;
 }

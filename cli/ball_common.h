@@ -61,6 +61,20 @@ inline BallInput load_ball_input(const std::string& path, int tets, bool split_c
   return in;
 }
 
+// E_I alone lets the boundary layer fold over (docs/methods.md): one note when more than
+// 0.1% of the ball is covered twice and the map is otherwise usable (`warning` empty);
+// "" otherwise. Points located in such a region (register) have two candidate images.
+inline std::string ball_overlap_note(const std::string& what, const BallMetrics& m,
+                                     const std::string& warning) {
+  if (!warning.empty() || !(m.overlap_fraction > 1e-3)) return "";
+  char line[256];
+  std::snprintf(line, sizeof line,
+                "%s: note: the map covers %.2f%% of the ball twice (boundary layer folded over); "
+                "--boundary-barrier 0.01 prevents it",
+                what.c_str(), 100 * m.overlap_fraction);
+  return line;
+}
+
 // One warning line when a ball map came out unusable (folded tets, or mean D_V above 0.2),
 // with the likely cause when the spherical boundary map already folded; "" otherwise.
 inline std::string ball_quality_warning(const std::string& what, const BallMetrics& m,

@@ -66,11 +66,7 @@ Command register_ball(CLI::App& app, GlobalOptions& g) {
                 " -> " + out.final_path() + "/ball.vtk");
     const std::string warning = ball_quality_warning("ball", m, r);
     if (!warning.empty()) info(g, warning);
-    // E_I alone lets the boundary layer fold over (docs/methods.md): say so when it did
-    // (and the map is otherwise usable).
-    if (warning.empty() && m.overlap_fraction > 1e-3)
-      info(g, "ball: note: the map covers " + std::to_string(100 * m.overlap_fraction) +
-                  "% of the ball twice (boundary layer folded over); --boundary-barrier 0.01 prevents it");
+    if (const std::string note = ball_overlap_note("ball", m, warning); !note.empty()) info(g, note);
     return 0;
   };
   return c;

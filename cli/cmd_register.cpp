@@ -17,6 +17,13 @@ namespace shapemap::cli {
 nlohmann::json volume_metrics_json(const VolumeMapMetrics& m);  // cmd_volume_map.cpp
 
 namespace {
+nlohmann::json location_json(const BallLocation& l) {
+  return {{"outside_ball_mesh", l.outside},
+          {"interior_outside_ball_mesh", l.outside_interior},
+          {"max_snap_distance", l.max_snap},
+          {"max_snap_distance_interior", l.max_snap_interior}};
+}
+
 nlohmann::json matrix_json(const Eigen::Matrix3d& M) {
   nlohmann::json j = nlohmann::json::array();
   for (int r = 0; r < 3; ++r) j.push_back({M(r, 0), M(r, 1), M(r, 2)});
@@ -30,7 +37,7 @@ Command register_register(CLI::App& app, GlobalOptions& g) {
   struct Args {
     std::string A, B, out, via = "ball";
     int tets = 0, frames = 0;
-    bool split_chords = false;
+    bool split_chords = false, no_center = false;
     RegisterOptions opt;
   };
   auto a = std::make_shared<Args>();
@@ -46,6 +53,9 @@ Command register_register(CLI::App& app, GlobalOptions& g) {
   c.app->add_flag("--split-chords", a->split_chords,
                    "Split interior edges that join two boundary vertices (always done for surface inputs); "
                    "the outputs are then on the refined meshes, written as OUT/A.vtk, OUT/B.vtk");
+  c.app->add_flag("--no-center", a->no_center,
+                   "Procrustes rotations g_s against the raw coordinates v (Sec. 7) instead of the "
+                   "volume-centred ones");
   add_ball_options(c.app, a->opt.ball);
   c.run = [a, &g] {
     if (a->frames == 1) throw InputError("--frames: need 0 or at least 2 frames");
@@ -57,7 +67,7 @@ Command register_register(CLI::App& app, GlobalOptions& g) {
     const BallInput inB = load_ball_input(a->B, a->tets, a->split_chords, progress, g.quiet);
     const TetMesh &A = inA.mesh, &B = inB.mesh;
     timer.start("register");
-    a->opt.frames = a->frames;
+    a->opt.center = !a->no_center;
     const RegisterResult r = register_through_ball(A, B, a->opt, progress, a->A, a->B);
     timer.start("metrics");
     const BallMetrics mA = ball_metrics(A, r.ball_A.f), mB = ball_metrics(B, r.ball_B.f);
@@ -73,13 +83,10 @@ Command register_register(CLI::App& app, GlobalOptions& g) {
     write_volume(out.path("B_on_A.vtk"), TetMesh{r.B_on_A, B.T});
     if (inA.changed()) write_volume(out.path("A.vtk"), A);
     if (inB.changed()) write_volume(out.path("B.vtk"), B);
-    for (size_t k = 0; k < r.frames.size(); ++k) {
+    for (int k = 0; k < a->frames; ++k) {  // one frame in memory at a time
       char name[64];
-      std::snprintf(name, sizeof(name), "frames/frame_%03zu.vtk", k);
-      TetMesh H;
-      H.V = r.frames[k];
-      H.T = A.T;
-      write_volume(out.path(name), H);
+      std::snprintf(name, sizeof(name), "frames/frame_%03d.vtk", k);
+      write_volume(out.path(name), TetMesh{linear_homotopy_frame(A.V, r.A_on_B, k, a->frames), A.T});
     }
     timer.stop();
     nlohmann::json j = report_header(g, "register");
@@ -89,6 +96,7 @@ Command register_register(CLI::App& app, GlobalOptions& g) {
     j["parameters"]["via"] = a->via;
     j["parameters"]["frames"] = a->frames;
     j["parameters"]["split_chords"] = a->split_chords;
+    j["parameters"]["center"] = a->opt.center;
     j["tetrahedralized"] = {{"A", inA.tetrahedralized}, {"B", inB.tetrahedralized}};
     j["boundary_chords"] = {{"A", {{"split", inA.chords_split}, {"left", inA.chords_left}}},
                             {"B", {{"split", inB.chords_split}, {"left", inB.chords_left}}}};
@@ -99,9 +107,9 @@ Command register_register(CLI::App& app, GlobalOptions& g) {
     j["h"] = matrix_json(r.h);
     j["d_phi"] = r.d_phi;
     j["d_phi_relative_to_bbox_diagonal"] = r.d_phi_relative;
-    j["vertices_outside_ball_mesh"] = r.outside;
-    j["vertices_outside_ball_mesh_BA"] = r.outside_BA;
-    j["frames"] = int(r.frames.size());
+    j["located_AB"] = location_json(r.located_AB);
+    j["located_BA"] = location_json(r.located_BA);
+    j["frames"] = a->frames;
     j["metrics"] = volume_metrics_json(vm);
     j["metrics_BA"] = volume_metrics_json(vm21);
     timer.start("pictures");
@@ -116,8 +124,13 @@ Command register_register(CLI::App& app, GlobalOptions& g) {
                 "% of A's bbox diagonal) -> " + out.final_path() + "/map_AB.txt");
     // phi is only as good as the two ball maps it composes.
     for (const auto& [w, mm, rr] : {std::tuple{std::string("register: A"), &mA, &r.ball_A},
-                                    std::tuple{std::string("register: B"), &mB, &r.ball_B}})
-      if (const std::string s = ball_quality_warning(w, *mm, *rr); !s.empty()) info(g, s);
+                                    std::tuple{std::string("register: B"), &mB, &r.ball_B}}) {
+      const std::string s = ball_quality_warning(w, *mm, *rr);
+      if (!s.empty()) info(g, s);
+      // A point of the other mesh that lands where this ball is covered twice has two
+      // candidate images; the locator takes one of them.
+      if (const std::string note = ball_overlap_note(w, *mm, s); !note.empty()) info(g, note);
+    }
     return 0;
   };
   return c;

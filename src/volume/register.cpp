@@ -4,6 +4,7 @@
 #include "shapemap/volume/symmetric_map.h"
 #include <Eigen/LU>
 #include <Eigen/SVD>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
@@ -14,16 +15,28 @@ using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 // Locates the points P (source vertices carried into the target's ball) in the target's
 // ball mesh (f_target, target.T): the map (clamped barycentrics) and its positions in the
-// target. Returns how many points lay outside the polyhedral ball (snapped to the closest tet).
-int compose_through_ball(const Eigen::MatrixXd& P, const Eigen::MatrixXd& f_target,
-                         const TetMesh& target, BarycentricMap& map, Eigen::MatrixXd& positions) {
+// target; `source_boundary` (indices into P) tells boundary points from interior ones.
+BallLocation compose_through_ball(const Eigen::MatrixXd& P, const Eigen::VectorXi& source_boundary,
+                                  const Eigen::MatrixXd& f_target, const TetMesh& target,
+                                  BarycentricMap& map, Eigen::MatrixXd& positions) {
   TetMesh ball;
   ball.V = f_target;
   ball.T = target.T;
-  int outside = 0;
-  map = locate_in_tets(ball, P, {}, &outside);
+  BallLocation loc;
+  map = locate_in_tets(ball, P, {}, &loc.outside);
   positions = map_positions(map, target.V, target.T);
-  return outside;
+  // Snap distances: the located point in the ball against the query.
+  const Eigen::MatrixXd located = map_positions(map, f_target, target.T);
+  std::vector<char> on_boundary(P.rows(), 0);
+  for (Eigen::Index k = 0; k < source_boundary.size(); ++k) on_boundary[source_boundary(k)] = 1;
+  for (Eigen::Index i = 0; i < P.rows(); ++i) {
+    const double d = (located.row(i) - P.row(i)).norm();
+    loc.max_snap = std::max(loc.max_snap, d);
+    if (on_boundary[i]) continue;
+    loc.max_snap_interior = std::max(loc.max_snap_interior, d);
+    if (d > 1e-10) ++loc.outside_interior;
+  }
+  return loc;
 }
 }  // namespace
 
@@ -50,15 +63,14 @@ Eigen::Matrix3d ball_procrustes_rotation(const Eigen::MatrixXd& f, const Eigen::
   return W * D * U.transpose();
 }
 
-std::vector<Eigen::MatrixXd> linear_homotopy(const Eigen::MatrixXd& V, const Eigen::MatrixXd& phi,
-                                             int K) {
+Eigen::MatrixXd linear_homotopy_frame(const Eigen::MatrixXd& V, const Eigen::MatrixXd& phi, int k,
+                                      int K) {
   if (K < 2) throw InputError("linear homotopy: need at least 2 frames");
-  std::vector<Eigen::MatrixXd> H;
-  for (int k = 0; k < K; ++k) {
-    const double t = double(k) / double(K - 1);
-    H.push_back((1 - t) * V + t * phi);  // Eq. 46
-  }
-  return H;
+  if (k < 0 || k >= K) throw InputError("linear homotopy: frame index out of range");
+  if (V.rows() != phi.rows() || V.cols() != phi.cols())
+    throw InputError("linear homotopy: V and phi must have the same size");
+  const double t = double(k) / double(K - 1);
+  return (1 - t) * V + t * phi;  // Eq. 46
 }
 
 RegisterResult register_through_ball(const TetMesh& A, const TetMesh& B, const RegisterOptions& opt,
@@ -89,8 +101,10 @@ RegisterResult register_through_ball(const TetMesh& A, const TetMesh& B, const R
 
   // phi = f_1^{-1} o h o f_0: locate h f_0(v) in B's ball mesh; psi likewise with h^{-1}.
   const auto tl = Clock::now();
-  r.outside = compose_through_ball(r.ball_A.f * r.h.transpose(), r.ball_B.f, B, r.map_AB, r.A_on_B);
-  r.outside_BA = compose_through_ball(r.ball_B.f * r.h, r.ball_A.f, A, r.map_BA, r.B_on_A);
+  r.located_AB = compose_through_ball(r.ball_A.f * r.h.transpose(), r.ball_A.boundary, r.ball_B.f, B,
+                                      r.map_AB, r.A_on_B);
+  r.located_BA = compose_through_ball(r.ball_B.f * r.h, r.ball_B.boundary, r.ball_A.f, A, r.map_BA,
+                                      r.B_on_A);
   const int nA = A.num_vertices();
   r.seconds_locate = since(tl);
 
@@ -101,7 +115,6 @@ RegisterResult register_through_ball(const TetMesh& A, const TetMesh& B, const R
   r.d_phi = s / w.sum();
   const double diag = bbox_diagonal(A.V);
   r.d_phi_relative = diag > 0 ? r.d_phi / diag : 0;
-  if (opt.frames >= 2) r.frames = linear_homotopy(A.V, r.A_on_B, opt.frames);
   r.seconds_total = since(t0);
   return r;
 }

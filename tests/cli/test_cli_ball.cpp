@@ -95,6 +95,31 @@ TEST(CliBall, BallRegisterEvaluateAndBadInput) {
   const nlohmann::json r = nlohmann::json::parse(slurp(reg / "report.json"));
   EXPECT_TRUE(r.contains("d_phi"));
   EXPECT_TRUE(r.contains("metrics_BA"));
+  EXPECT_FALSE(fs::exists(reg / "frames/frame_003.vtk"));
+  EXPECT_TRUE(r["parameters"]["center"].get<bool>());
+  // The frames are H(v, t) = (1 - t) v + t phi(v) (Eq. 46): the middle one is the average of
+  // A and A_on_B.
+  {
+    const TetMesh a = read_volume(A.string()), aob = read_volume((reg / "A_on_B.vtk").string());
+    const TetMesh mid = read_volume((reg / "frames/frame_001.vtk").string());
+    EXPECT_LT((mid.V - 0.5 * (a.V + aob.V)).cwiseAbs().maxCoeff(), 1e-9);
+  }
+  // Location report: every boundary vertex of A lies on the sphere, outside B's inscribed
+  // polyhedral ball, so it is snapped; interior ones are counted apart.
+  const nlohmann::json& loc = r["located_AB"];
+  EXPECT_GE(loc["outside_ball_mesh"].get<int>(), r["ball_A"]["metrics"]["num_boundary_vertices"].get<int>() / 2);
+  EXPECT_LE(loc["interior_outside_ball_mesh"].get<int>(), loc["outside_ball_mesh"].get<int>());
+  EXPECT_GT(loc["max_snap_distance"].get<double>(), 0.0);
+  EXPECT_LE(loc["max_snap_distance_interior"].get<double>(), loc["max_snap_distance"].get<double>());
+  EXPECT_TRUE(r["located_BA"].contains("interior_outside_ball_mesh"));
+  // --no-center: the paper's raw coordinates in the Procrustes step.
+  const fs::path reg2 = tmp.path / "reg_raw";
+  ASSERT_EQ(run("register " + A.string() + " " + B.string() + " -o " + reg2.string() +
+                    " --no-center --max-iterations 30",
+                err),
+            0)
+      << slurp(err);
+  EXPECT_FALSE(nlohmann::json::parse(slurp(reg2 / "report.json"))["parameters"]["center"].get<bool>());
 
   // not a ball -> exit 2, one line naming the file, no output folder
   const fs::path bad = tmp.path / "bad";

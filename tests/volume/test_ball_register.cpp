@@ -21,11 +21,11 @@ TEST(BallRegister, VertexVolumesAndProcrustes) {
   EXPECT_LT((g - R).norm(), 1e-10);
   EXPECT_NEAR(g.determinant(), 1.0, 1e-12);
   // Homotopy endpoints.
-  const auto H = linear_homotopy(m.V, f, 3);
-  ASSERT_EQ(H.size(), 3u);
-  EXPECT_EQ((H[0] - m.V).cwiseAbs().maxCoeff(), 0.0);
-  EXPECT_LT((H[2] - f).cwiseAbs().maxCoeff(), 1e-15);
-  EXPECT_LT((H[1] - 0.5 * (m.V + f)).cwiseAbs().maxCoeff(), 1e-15);
+  EXPECT_EQ((linear_homotopy_frame(m.V, f, 0, 3) - m.V).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_LT((linear_homotopy_frame(m.V, f, 2, 3) - f).cwiseAbs().maxCoeff(), 1e-15);
+  EXPECT_LT((linear_homotopy_frame(m.V, f, 1, 3) - 0.5 * (m.V + f)).cwiseAbs().maxCoeff(), 1e-15);
+  EXPECT_THROW(linear_homotopy_frame(m.V, f, 3, 3), InputError);
+  EXPECT_THROW(linear_homotopy_frame(m.V, f, 0, 1), InputError);
 }
 
 TEST(BallRegister, SelfRegistrationIsIdentity) {
@@ -50,11 +50,17 @@ TEST(BallRegister, DeformedRemeshedPair) {
   B.V = (B.V * R.transpose()).eval();
   RegisterOptions o;
   o.ball.max_iterations = 100;
-  o.frames = 4;
   const RegisterResult r = register_through_ball(A, B, o, {}, "A.vtk", "B.vtk");
   validate_map(r.map_AB, A.num_vertices(), B.num_tets(), 4, "map");
-  ASSERT_EQ(r.frames.size(), 4u);
-  EXPECT_LT((r.frames[3] - r.A_on_B).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_LT((linear_homotopy_frame(A.V, r.A_on_B, 3, 4) - r.A_on_B).cwiseAbs().maxCoeff(), 1e-12);
+  // Location report: A's boundary vertices sit on the unit sphere, outside B's inscribed
+  // polyhedral ball, so they are snapped (by less than the gap between sphere and
+  // polyhedron); interior vertices land inside B's ball mesh.
+  EXPECT_GE(r.located_AB.outside, int(r.ball_A.boundary.size()) / 2);
+  EXPECT_LE(r.located_AB.outside_interior, r.located_AB.outside);
+  EXPECT_GT(r.located_AB.max_snap, 0.0);
+  EXPECT_LT(r.located_AB.max_snap, 0.2);
+  EXPECT_LE(r.located_AB.max_snap_interior, r.located_AB.max_snap);
   // phi(A) occupies B: every image lies within B's bounding box (slightly enlarged).
   const Eigen::RowVector3d lo = B.V.colwise().minCoeff(), hi = B.V.colwise().maxCoeff();
   for (int i = 0; i < A.num_vertices(); ++i)

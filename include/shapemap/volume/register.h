@@ -22,16 +22,26 @@ Eigen::VectorXd vertex_volumes(const Eigen::MatrixXd& V, const Eigen::MatrixXi& 
 Eigen::Matrix3d ball_procrustes_rotation(const Eigen::MatrixXd& f, const Eigen::MatrixXd& V,
                                          const Eigen::VectorXd& w);
 
-// Linear homotopy H(v, t) = (1 - t) v + t phi(v) (Eq. 46) for t = k/(K-1), k = 0..K-1
-// (K >= 2). V, phi n×3.
-std::vector<Eigen::MatrixXd> linear_homotopy(const Eigen::MatrixXd& V, const Eigen::MatrixXd& phi,
-                                             int K);
+// Frame k of the linear homotopy H(v, t) = (1 - t) v + t phi(v) (Eq. 46), t = k/(K-1),
+// 0 <= k < K, K >= 2. V, phi n×3. One frame at a time: K frames of a large mesh need not
+// fit in memory together (the CLI writes each as it is made).
+Eigen::MatrixXd linear_homotopy_frame(const Eigen::MatrixXd& V, const Eigen::MatrixXd& phi, int k,
+                                      int K);
 
 struct RegisterOptions {
   BallParamOptions ball;    // Algorithm 1 for both meshes
   bool center = true;       // Procrustes against volume-centred vertices (the ball is centred
                             // at the origin; off: the raw coordinates v of Sec. 7)
-  int frames = 0;           // linear-homotopy frames to produce (0: none, else >= 2)
+};
+
+// How the points h f_0(v) were found in the target's ball mesh. Boundary vertices lie on the
+// unit sphere, outside the inscribed polyhedral ball, and are always snapped to its surface;
+// an interior vertex outside fell into a gap of the target's ball map.
+struct BallLocation {
+  int outside = 0;                // points outside the polyhedral ball (snapped to the closest tet)
+  int outside_interior = 0;       // of them, images of interior vertices of the source
+  double max_snap = 0;            // largest snap distance (ball units) over all points
+  double max_snap_interior = 0;   // ... over the interior vertices of the source
 };
 
 struct RegisterResult {
@@ -44,10 +54,8 @@ struct RegisterResult {
   Eigen::MatrixXd B_on_A;              // psi(v), n_B×3, in A's coordinates
   double d_phi = 0;                    // d(phi) = sum ||v - phi(v)|| vol(v) / |M_0| (Sec. 7)
   double d_phi_relative = 0;           // d(phi) / bounding-box diagonal of A
-  int outside = 0;                     // vertices of A whose h f_0(v) fell outside B's ball
-                                       // mesh (snapped to the closest tet)
-  int outside_BA = 0;                  // ... of B whose h^{-1} f_1(v) fell outside A's
-  std::vector<Eigen::MatrixXd> frames; // H(M_0, t) vertex positions when frames >= 2
+  BallLocation located_AB;             // h f_0(v) in B's ball mesh
+  BallLocation located_BA;             // h^{-1} f_1(v) in A's ball mesh
   double seconds_locate = 0, seconds_total = 0;
 };
 
