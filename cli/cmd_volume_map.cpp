@@ -6,8 +6,9 @@
 //                       [--landmarks LA LB] [--surface-map MAP_AB MAP_BA]
 //
 // Writes OUT/map_AB.txt, map_BA.txt (vertex -> target tet + barycentric), A_on_B.vtk,
-// B_on_A.vtk (source connectivity, mapped positions in the target's coordinates) and
-// report.json (inputs, parameters, per-stage timings, Table 3 metrics per direction).
+// B_on_A.vtk (source connectivity, mapped positions in the target's coordinates),
+// report.json (inputs, parameters, per-stage timings, Table 3 metrics per direction) and,
+// for surface inputs, the tet meshes made from them (A.vtk, B.vtk), which the maps index.
 #include "ball_common.h"
 #include "common.h"
 #include "figures.h"
@@ -277,6 +278,10 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
     };
     write_vtk(out.path("A_on_B.vtk"), TetMesh{r.X12, A.T}, {}, {{"volume_ratio", detn(A, r.X12)}});
     write_vtk(out.path("B_on_A.vtk"), TetMesh{r.X21, B.T}, {}, {{"volume_ratio", detn(B, r.X21)}});
+    // The maps index the tets we made from surface inputs: without them map_AB.txt and the
+    // rest positions of A_on_B.vtk's vertices could not be read.
+    if (inA.from_surface) write_volume(out.path("A.vtk"), A);
+    if (inB.from_surface) write_volume(out.path("B.vtk"), B);
     timer.stop();
 
     nlohmann::json j = report_header(g, "volume-map");

@@ -54,6 +54,9 @@ TEST(VolumeMapCli, LandmarkRunWritesAllOutputsAndEvaluates) {
             0);
   for (const char* name : {"map_AB.txt", "map_BA.txt", "A_on_B.vtk", "B_on_A.vtk", "report.json"})
     EXPECT_TRUE(fs::exists(f.dir / "out" / name)) << name;
+  // Tet meshes given: they are the user's own files, not copied.
+  EXPECT_FALSE(fs::exists(f.dir / "out" / "A.vtk"));
+  EXPECT_FALSE(fs::exists(f.dir / "out" / "B.vtk"));
   BarycentricMap m = read_map(f.p("out/map_AB.txt"));
   EXPECT_EQ(m.size(), 7 * 5 * 4);
   EXPECT_EQ(run("evaluate volume " + f.p("A.mesh") + " " + f.p("B.vtk") + " " + f.p("out/map_AB.txt") +
@@ -142,4 +145,35 @@ TEST(VolumeMapCli, PostRepairFallbackRemovesTheLastInvertedTets) {
   const nlohmann::json r = nlohmann::json::parse(in);
   EXPECT_EQ(r["metrics"]["AB"]["n_inv"].get<int>(), 0);
   EXPECT_EQ(r["metrics"]["BA"]["n_inv"].get<int>(), 0);
+}
+
+// Surface inputs are tetrahedralized inside the command: the tet meshes the maps index are
+// written beside them (A.vtk, B.vtk), consistent with map_AB.txt, map_BA.txt and A_on_B.vtk.
+TEST(VolumeMapCli, SurfaceInputsWriteTheTetMeshesTheMapsIndex) {
+  shapemap::testing::TempDir t("volmap_cli_surface_inputs");
+  ASSERT_EQ(run("generate --shape pair --vertices 600 --seed 2 -o " + t.p("pair")), 0);
+  const TriMesh A = read_surface(t.p("pair/A.obj")), B = read_surface(t.p("pair/B.obj"));
+  const Eigen::MatrixXd TB = map_positions(read_map(t.p("pair/truth_AB.txt")), B.V, B.F);
+  {
+    std::ofstream la(t.p("LA.txt")), lb(t.p("LB.txt"));
+    la.precision(17);
+    lb.precision(17);
+    for (int v : {0, A.num_vertices() / 3, 2 * A.num_vertices() / 3, A.num_vertices() - 1}) {
+      la << A.V(v, 0) << " " << A.V(v, 1) << " " << A.V(v, 2) << "\n";
+      lb << TB(v, 0) << " " << TB(v, 1) << " " << TB(v, 2) << "\n";
+    }
+  }
+  ASSERT_EQ(run("volume-map " + t.p("pair/A.obj") + " " + t.p("pair/B.obj") + " -o " + t.p("out") +
+                " --tets 1500 --landmarks " + t.p("LA.txt") + " " + t.p("LB.txt") + " --max-iterations 3"),
+            0);
+  const TetMesh TA = read_volume(t.p("out/A.vtk")), TBm = read_volume(t.p("out/B.vtk"));
+  EXPECT_GT(TA.num_tets(), 500);
+  EXPECT_GT(TBm.num_tets(), 500);
+  validate_map(read_map(t.p("out/map_AB.txt")), TA.num_vertices(), TBm.num_tets(), 4, "map_AB");
+  validate_map(read_map(t.p("out/map_BA.txt")), TBm.num_vertices(), TA.num_tets(), 4, "map_BA");
+  const TetMesh AonB = read_volume(t.p("out/A_on_B.vtk"));
+  EXPECT_EQ(AonB.T, TA.T);
+  EXPECT_EQ(run("evaluate volume " + t.p("out/A.vtk") + " " + t.p("out/B.vtk") + " " + t.p("out/map_AB.txt") +
+                " -o " + t.p("eval.json")),
+            0);
 }
