@@ -26,13 +26,6 @@ struct TetArgs {
   double radius_edge = 3.0;
 };
 
-// Library messages name the mesh "surface"; the user knows it by its path.
-std::string with_path(const std::string& msg, const std::string& path) {
-  const std::string prefix = "surface: ";
-  if (msg.compare(0, prefix.size(), prefix) == 0) return path + ": " + msg.substr(prefix.size());
-  return path + ": " + msg;
-}
-
 int run_tetrahedralize(const TetArgs& a, const GlobalOptions& g) {
   if (!is_volume_path(a.output))
     throw InputError(a.output + ": output must be a volume file (.vtk .mesh .msh .node .ele)");
@@ -47,12 +40,7 @@ int run_tetrahedralize(const TetArgs& a, const GlobalOptions& g) {
   opt.radius_edge_ratio = a.radius_edge;
   opt.seed = unsigned(g.seed);
   auto t0 = std::chrono::steady_clock::now();
-  TetMesh mesh;
-  try {
-    mesh = tetrahedralize_input(surface, opt, make_progress(g), a.input, g.quiet);
-  } catch (const InputError& e) {
-    throw InputError(with_path(e.what(), a.input));
-  }
+  TetMesh mesh = tetrahedralize_input(surface, opt, make_progress(g), a.input, g.quiet);
   if (a.split_chords) split_boundary_chords(mesh);
   double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   write_volume(a.output, mesh);

@@ -51,7 +51,14 @@ void info(const GlobalOptions& g, const std::string& msg) {
 TetMesh tetrahedralize_input(const TriMesh& surface, const TetrahedralizeOptions& opt,
                              const ProgressCallback& progress, const std::string& path, bool quiet) {
   TetrahedralizeInfo ti;
-  TetMesh m = tetrahedralize(surface, opt, progress, &ti);
+  TetMesh m;
+  try {
+    m = tetrahedralize(surface, opt, progress, &ti);
+  } catch (const InputError& e) {
+    // The library names the mesh "surface"; the user knows it by its path.
+    const std::string msg = e.what(), prefix = "surface: ";
+    throw InputError(path + ": " + (msg.compare(0, prefix.size(), prefix) == 0 ? msg.substr(prefix.size()) : msg));
+  }
   if (!ti.creases_dropped.empty() && !quiet)
     std::cerr << path << ": note: sharp creases not protected (CGAL's crease protection failed: "
               << ti.creases_dropped << "); meshed without them\n";

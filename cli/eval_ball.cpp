@@ -38,6 +38,10 @@ Command register_evaluate_ball(CLI::App& evaluate, GlobalOptions& g) {
       if ((S - A.T).cwiseAbs().maxCoeff() != 0 && (S2 - A.T).cwiseAbs().maxCoeff() != 0)
         throw InputError(a->ball + ": connectivity differs from " + a->A);
     }
+    // D_V normalizes by the image volume V(f): a map with none (all vertices at one point,
+    // a flat image) has no metrics.
+    if (!(tet_volumes(F.V, F.T).sum() != 0))
+      throw InputError(a->ball + ": the map has zero total volume (a collapsed or flat image)");
     const BallMetrics m = ball_metrics(A, F.V);
     nlohmann::json j = report_header(g, "evaluate ball");
     j["inputs"] = {{"A", a->A}, {"ball", a->ball}};

@@ -24,29 +24,21 @@ namespace {
 Eigen::MatrixXd read_truth(const std::string& path, const TetMesh& B) {
   std::ifstream f(path);
   if (!f) throw InputError(path + ": cannot open");
-  std::string first;
-  while (std::getline(f, first))
-    if (!first.empty() && first[0] != '#') break;
+  std::string first;  // the first line with content (after a byte-order mark, blanks, comments)
+  while (std::getline(f, first)) {
+    if (first.rfind("\xEF\xBB\xBF", 0) == 0) first.erase(0, 3);
+    const size_t b = first.find_first_not_of(" \t\r");
+    if (b != std::string::npos && first[b] != '#') {
+      first.erase(0, b);
+      break;
+    }
+  }
   if (first.rfind("shapemap-map", 0) == 0) {
     BarycentricMap m = read_map(path);
     validate_map(m, m.size(), B.num_tets(), 4, path);
     return map_positions(m, B.V, B.T);
   }
-  std::vector<Eigen::RowVector3d> rows;
-  std::string line = first;
-  int lineno = 0;
-  do {
-    ++lineno;
-    if (line.empty() || line[0] == '#') continue;
-    std::istringstream ss(line);
-    Eigen::RowVector3d p;
-    if (!(ss >> p(0) >> p(1) >> p(2)))
-      throw InputError(path + ": expected 'x y z' or a shapemap-map header, got '" + line + "'");
-    rows.push_back(p);
-  } while (std::getline(f, line));
-  Eigen::MatrixXd X(rows.size(), 3);
-  for (size_t i = 0; i < rows.size(); ++i) X.row(i) = rows[i];
-  return X;
+  return read_points(path);
 }
 
 TetMesh read_tets(const std::string& path) {

@@ -30,6 +30,10 @@ bool is_volume_path(const std::string& path);
 // True if the extension names a surface format (.obj .off .ply .stl).
 bool is_surface_path(const std::string& path);
 
+// Points: "x y z" per line ('#' comments and blank lines allowed, exactly three finite
+// numbers per line). Throws InputError("<path>:<line>: ...") otherwise, or if there are none.
+Eigen::MatrixXd read_points(const std::string& path);
+
 // Landmarks: one 0-based vertex index per line, or "x y z" per line (snapped to the
 // nearest vertex among `candidates`, all vertices if empty). '#' comments allowed.
 // Throws InputError if the file has none, or names the same vertex twice.

@@ -53,8 +53,14 @@ std::string read_file_bytes(const std::string& path) {
       if (!in) return data;
     }
   }
+  // A pipe or device (process substitution <(...) is one) is read to its end, up to a bound
+  // (a symlink to /dev/zero must not take all the memory).
+  constexpr size_t kMaxStreamBytes = size_t(1) << 31;
   char buf[1 << 16];
-  while (in.read(buf, sizeof buf) || in.gcount() > 0) data.append(buf, size_t(in.gcount()));
+  while (in.read(buf, sizeof buf) || in.gcount() > 0) {
+    data.append(buf, size_t(in.gcount()));
+    if (data.size() > kMaxStreamBytes) throw InputError(path + ": not a regular file and longer than 2 GiB");
+  }
   if (in.bad()) throw InputError(path + ": read error");
   return data;
 }
@@ -269,6 +275,22 @@ void write_vtk(const std::string& path, const TetMesh& mesh,
   data("POINT_DATA", n, point_data);
   data("CELL_DATA", m, cell_data);
   write_bytes_atomic(path, s);
+}
+
+Eigen::MatrixXd read_points(const std::string& path) {
+  std::string data = read_file_bytes(path);
+  Parser P(path, data);
+  P.comment = '#';
+  std::vector<double> xyz;
+  for (;;) {
+    P.skip_space();
+    if (P.eof()) break;
+    for (const char* c : {"x", "y", "z"}) xyz.push_back(P.line_double(c));
+    if (!P.at_eol()) P.fail("expected 3 values (x y z), found more");
+    P.skip_line();
+  }
+  if (xyz.empty()) throw InputError(path + ": no points");
+  return to_matrix(xyz, 3);
 }
 
 std::vector<int> read_landmarks(const std::string& path, const Eigen::MatrixXd& V,

@@ -62,8 +62,15 @@ std::string quote(std::string_view tok);
 
 class Parser {
  public:
-  Parser(std::string path, const std::string& data)
-      : path_(std::move(path)), begin_(data.data()), p_(data.data()), end_(data.data() + data.size()) {}
+  // skip_bom: start after a UTF-8 byte-order mark (EF BB BF), which editors on Windows put
+  // in front of text files; off for formats whose first bytes may be binary (STL).
+  Parser(std::string path, const std::string& data, bool skip_bom = true)
+      : path_(std::move(path)), begin_(data.data()), p_(data.data()), end_(data.data() + data.size()) {
+    if (skip_bom && has_utf8_bom(data)) p_ += 3;
+  }
+  static bool has_utf8_bom(const std::string& data) {
+    return data.size() >= 3 && std::memcmp(data.data(), "\xEF\xBB\xBF", 3) == 0;
+  }
 
   const std::string& path() const { return path_; }
   int line() const { return line_; }

@@ -93,6 +93,11 @@ TriMesh read_obj(const std::string& path) {
         raw.push_back(idx[k + 1]);
         face_line.push_back(P.line());
       }
+    } else if (tok.size() > 1 && (tok[0] == 'f' || tok[0] == 'v') &&
+               (std::isdigit(static_cast<unsigned char>(tok[1])) || tok[1] == '-' || tok[1] == '.')) {
+      // "f1 2 3", "v0.5 1 2": a statement fused with its first number would be dropped as
+      // an unknown keyword (no OBJ keyword starts with f or v followed by a number).
+      P.fail("not an OBJ statement: " + quote(tok) + " (missing space after '" + tok[0] + "'?)");
     } else if (!std::all_of(tok.begin(), tok.end(), [](char c) {
                  return std::isalnum(static_cast<unsigned char>(c)) || c == '_';
                })) {
@@ -520,7 +525,7 @@ struct StlMerger {
 };
 
 bool starts_with_solid(const std::string& data) {
-  size_t i = 0;
+  size_t i = Parser::has_utf8_bom(data) ? 3 : 0;
   while (i < data.size() && (data[i] == ' ' || data[i] == '\t' || data[i] == '\r' || data[i] == '\n')) ++i;
   return data.size() - i >= 5 && iequals(std::string_view(data).substr(i, 5), "solid");
 }
@@ -529,7 +534,7 @@ bool starts_with_solid(const std::string& data) {
 
 TriMesh read_stl(const std::string& path) {
   std::string data = read_file_bytes(path);
-  Parser P(path, data);
+  Parser P(path, data, /*skip_bom=*/false);  // a binary header may start with any bytes
   const size_t size = data.size();
   std::uint32_t n = 0;
   if (size >= 84) std::memcpy(&n, data.data() + 80, 4);
@@ -563,6 +568,7 @@ TriMesh read_stl(const std::string& path) {
            std::to_string((long long)expected) + " bytes), file has " + std::to_string(size) + " bytes");
   }
   // ASCII
+  if (Parser::has_utf8_bom(data)) P.skip_bytes(3, "byte-order mark");
   std::vector<int> poly;
   bool in_loop = false;
   int loop_line = 0;

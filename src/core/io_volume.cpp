@@ -122,7 +122,8 @@ void write_medit(const std::string& path, const TetMesh& m) {
 }
 
 // ---------------------------------------------------------------------------------
-// Legacy VTK unstructured grid, ASCII or BINARY (big endian). POINTS float|double,
+// Legacy VTK unstructured grid, ASCII or BINARY (big endian); keywords in any case, as
+// VTK's own reader accepts them. POINTS float|double,
 // CELLS (classic "n size" list, or the 5.1 OFFSETS/CONNECTIVITY form), CELL_TYPES;
 // cells of type 10 (VTK_TETRA) are kept, other cells ignored.
 TetMesh read_vtk(const std::string& path) {
@@ -166,13 +167,13 @@ TetMesh read_vtk(const std::string& path) {
   for (;;) {
     std::string_view kw = P.next_token();
     if (kw.empty()) break;
-    if (kw == "POINTS") {
+    if (iequals(kw, "POINTS")) {
       if (have_points) P.fail("second POINTS section");
       have_points = true;
       points_line = P.line();
       long long n_raw = P.next_int("point count");
       std::string_view type = P.next_token();
-      bool dbl = type == "double", flt = type == "float";
+      bool dbl = iequals(type, "double"), flt = iequals(type, "float");
       if (!dbl && !flt) P.fail("POINTS type " + quote(type) + " is not supported (need float or double)");
       if (!binary) {
         int n = P.check_count(n_raw, 6, "point");
@@ -189,7 +190,7 @@ TetMesh read_vtk(const std::string& path) {
           pts.push_back(x);
         }
       }
-    } else if (kw == "CELLS") {
+    } else if (iequals(kw, "CELLS")) {
       if (have_cells) P.fail("second CELLS section");
       have_cells = true;
       cells_line = P.line();
@@ -199,7 +200,7 @@ TetMesh read_vtk(const std::string& path) {
         P.rest_of_line();
         offsets_next = P.remaining() >= 7 && std::memcmp(P.pos(), "OFFSETS", 7) == 0;
       } else {
-        offsets_next = P.peek_token() == "OFFSETS";
+        offsets_next = iequals(P.peek_token(), "OFFSETS");
       }
       if (offsets_next) {  // VTK 5.1: CELLS <offsets> <connectivity size>
         new_cells = true;
@@ -216,7 +217,7 @@ TetMesh read_vtk(const std::string& path) {
         num_cells = P.check_count(a, binary ? 4 : 2, "cell");
         read_ints(P.check_count(b, binary ? 4 : 2, "cell list"), "int", "CELLS", cells);
       }
-    } else if (kw == "CELL_TYPES") {
+    } else if (iequals(kw, "CELL_TYPES")) {
       if (have_types) P.fail("second CELL_TYPES section");
       have_types = true;
       types_line = P.line();
@@ -229,10 +230,10 @@ TetMesh read_vtk(const std::string& path) {
       // Skip an unneeded section (FIELD, METADATA, ...) up to the next one we read.
       while (!P.eof()) {
         std::string_view t = P.peek_token();
-        if (t.empty() || t == "POINTS" || t == "CELLS" || t == "CELL_TYPES") break;
+        if (t.empty() || iequals(t, "POINTS") || iequals(t, "CELLS") || iequals(t, "CELL_TYPES")) break;
         P.next_token();
       }
-    } else if (kw == "METADATA") {
+    } else if (iequals(kw, "METADATA")) {
       // Text lines up to an empty line.
       P.rest_of_line();
       while (!P.eof() && !P.rest_of_line().empty()) {
@@ -456,11 +457,28 @@ void write_gmsh(const std::string& path, const TetMesh& m) {
 // TetGen .node/.ele: either name given, the other is found by replacing the
 // extension. Node numbers may start at 0 or 1 (any numbering is mapped).
 namespace {
+// The .node and .ele paths of a TetGen pair given either one: the given path as it is, its
+// companion in the same letter case (a.node + a.ele, a.NODE + a.ELE, a.Node + a.Ele), or
+// in another case if only that one exists.
 std::pair<std::string, std::string> tetgen_paths(const std::string& path) {
-  size_t dot = path.rfind('.');
-  std::string stem = path.substr(0, dot);
-  bool upper = dot + 1 < path.size() && path[dot + 1] >= 'A' && path[dot + 1] <= 'Z';
-  return {stem + (upper ? ".NODE" : ".node"), stem + (upper ? ".ELE" : ".ele")};
+  const size_t dot = path.rfind('.');
+  const std::string stem = path.substr(0, dot), ext = path.substr(dot + 1);
+  auto is_upper = [](char c) { return c >= 'A' && c <= 'Z'; };
+  const bool all_upper = !ext.empty() && std::all_of(ext.begin(), ext.end(), is_upper);
+  const bool capitalized = !ext.empty() && is_upper(ext[0]) && !all_upper;
+  auto companion = [&](const std::string& lower) {
+    std::string upper = lower, cap = lower;
+    for (char& c : upper) c = char(c - 'a' + 'A');
+    cap[0] = upper[0];
+    const std::string order[3] = {all_upper ? upper : capitalized ? cap : lower, lower, upper};
+    for (const std::string& e : order) {
+      std::error_code ec;
+      if (std::filesystem::exists(stem + "." + e, ec)) return stem + "." + e;
+    }
+    return stem + "." + order[0];
+  };
+  if (iequals(ext, "node")) return {path, companion("ele")};
+  return {companion("node"), path};
 }
 }  // namespace
 
@@ -506,12 +524,12 @@ TetMesh read_tetgen(const std::string& path) {
     for (int t = 0; t < m; ++t) {
       P.skip_space();
       long long id = P.line_int("tetrahedron number");
-      for (int j = 0; j < 4; ++j) {
+      for (int j = 0; j < int(npt); ++j) {  // 10 nodes: the 6 edge midpoints follow (not used)
         long long v = P.line_int("tetrahedron node");
         int i = ids.find(v);
         if (i < 0)
           P.fail("tetrahedron " + std::to_string(id) + ": node " + std::to_string(v) + " is not in " + node_path);
-        B.T.push_back(i);
+        if (j < 4) B.T.push_back(i);
       }
       P.skip_line();
     }

@@ -11,10 +11,12 @@
 #include <Spectra/SymEigsSolver.h>
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <numeric>
 #include <queue>
+#include <unordered_map>
 
 namespace shapemap {
 
@@ -230,54 +232,78 @@ BIMSurface bim_prepare(const TriMesh& input, const std::string& name, const BIMO
 }
 
 // ---------------------------------------------------------------------------------------
+namespace {
+long long choose3(long long n) { return n < 3 ? 0 : n * (n - 1) * (n - 2) / 6; }
+
+// The r-th triple a < b < c of {0..n-1} in lexicographic order (the order of three nested
+// loops), 0 <= r < choose3(n).
+std::array<int, 3> unrank_triple(long long r, int n) {
+  int a = 0;
+  for (;; ++a) {  // triples starting with a: C(n-a-1, 2)
+    const long long m = n - a - 1, count = m * (m - 1) / 2;
+    if (r < count) break;
+    r -= count;
+  }
+  int b = a + 1;
+  for (;; ++b) {  // pairs (b, c) with c > b: n - b - 1
+    const long long count = n - b - 1;
+    if (r < count) break;
+    r -= count;
+  }
+  return {a, b, int(b + 1 + r)};
+}
+}  // namespace
+
 std::vector<BIMCandidate> bim_candidates(const BIMSurface& src, const BIMSurface& dst,
                                          const BIMOptions& opt, long long* total) {
-  std::vector<BIMCandidate> all;
   const int n1 = int(src.features.size()), n2 = int(dst.features.size());
   const bool fixed = !opt.landmarks_A.empty();
-  if (fixed) {
-    if (n1 != n2) throw InputError("landmarks: the two lists have different lengths");
-    for (int a = 0; a < n1; ++a)
-      for (int b = a + 1; b < n1; ++b)
-        for (int c = b + 1; c < n1; ++c) {
-          BIMCandidate cd;
-          cd.source = {a, b, c};
-          cd.target = {a, b, c};
-          all.push_back(cd);
-        }
-  } else {
-    static const int perms[6][3] = {{0, 1, 2}, {1, 2, 0}, {2, 0, 1}, {0, 2, 1}, {2, 1, 0}, {1, 0, 2}};
-    for (int a = 0; a < n1; ++a)
-      for (int b = a + 1; b < n1; ++b)
-        for (int c = b + 1; c < n1; ++c)
-          for (int x = 0; x < n2; ++x)
-            for (int y = x + 1; y < n2; ++y)
-              for (int z = y + 1; z < n2; ++z) {
-                int t[3] = {x, y, z};
-                for (auto& p : perms) {
-                  BIMCandidate cd;
-                  cd.source = {a, b, c};
-                  cd.target = {t[p[0]], t[p[1]], t[p[2]]};
-                  all.push_back(cd);
-                }
-              }
-  }
-  if (total) *total = (long long)all.size();
-  // Sec. 6.2: random removal down to max_candidates (seeded, order kept).
-  if (opt.max_candidates > 0 && int(all.size()) > opt.max_candidates) {
-    std::vector<int> idx(all.size());
-    std::iota(idx.begin(), idx.end(), 0);
+  if (fixed && n1 != n2) throw InputError("landmarks: the two lists have different lengths");
+  // Candidate i in the order of the nested loops: with landmarks, the i-th triple of
+  // corresponding landmarks; else (i / 6) = rank of the source triple * C(n2, 3) + rank of the
+  // target triple, and i % 6 the permutation of the target triple.
+  static const int perms[6][3] = {{0, 1, 2}, {1, 2, 0}, {2, 0, 1}, {0, 2, 1}, {2, 1, 0}, {1, 0, 2}};
+  const long long T1 = choose3(n1), T2 = choose3(n2);
+  const long long N = fixed ? T1 : T1 * T2 * 6;  // at most ~1e18 for the feature counts used
+  auto candidate = [&](long long i) {
+    BIMCandidate cd;
+    if (fixed) {
+      cd.source = cd.target = unrank_triple(i, n1);
+    } else {
+      const int* p = perms[i % 6];
+      const long long q = i / 6;
+      cd.source = unrank_triple(q / T2, n1);
+      const std::array<int, 3> t = unrank_triple(q % T2, n2);
+      cd.target = {t[p[0]], t[p[1]], t[p[2]]};
+    }
+    return cd;
+  };
+  if (total) *total = N;
+  std::vector<BIMCandidate> all;
+  if (opt.max_candidates > 0 && N > opt.max_candidates) {
+    // Sec. 6.2: random removal down to max_candidates (seeded, order kept): a partial
+    // Fisher-Yates shuffle of the indices 0..N-1 with the swaps kept in a map, so the
+    // candidates are never all built (C(k,3) landmark triples grow fast: 642 landmarks are
+    // 44 million).
+    std::unordered_map<long long, long long> swapped;
+    auto at = [&](long long i) {
+      auto it = swapped.find(i);
+      return it == swapped.end() ? i : it->second;
+    };
+    std::vector<long long> idx(opt.max_candidates);
     std::uint64_t rs = opt.seed * 0x2545F4914F6CDD1DULL + 17;
     for (int i = 0; i < opt.max_candidates; ++i) {
-      int j = i + int(splitmix64(rs) % std::uint64_t(idx.size() - i));
-      std::swap(idx[i], idx[j]);
+      const long long j = i + (long long)(splitmix64(rs) % std::uint64_t(N - i));
+      const long long vi = at(i), vj = at(j);
+      swapped[j] = vi;
+      idx[i] = vj;
     }
-    idx.resize(opt.max_candidates);
     std::sort(idx.begin(), idx.end());
-    std::vector<BIMCandidate> kept;
-    kept.reserve(idx.size());
-    for (int i : idx) kept.push_back(all[i]);
-    all.swap(kept);
+    all.reserve(idx.size());
+    for (long long i : idx) all.push_back(candidate(i));
+  } else {
+    all.reserve(size_t(N));
+    for (long long i = 0; i < N; ++i) all.push_back(candidate(i));
   }
   std::vector<BIMCandidate> valid;
   valid.reserve(all.size());

@@ -473,3 +473,91 @@ TEST(IO, PathKinds) {
   EXPECT_FALSE(is_surface_path("x.mesh"));
   EXPECT_FALSE(is_surface_path("noext"));
 }
+
+// Text files saved with a UTF-8 byte-order mark (EF BB BF) read like the same files
+// without it, in every text format; a binary STL keeps its header bytes as they are.
+TEST(IO, Utf8ByteOrderMarkIsSkipped) {
+  const std::string bom = "\xEF\xBB\xBF";
+  TriMesh s = octahedron();
+  for (const char* ext : {".obj", ".off", ".ply"}) {
+    const std::string p = scratch(std::string("bom_plain") + ext), q = scratch(std::string("bom") + ext);
+    write_surface(p, s);
+    write_file(q, bom + read_bytes(p));
+    expect_same(read_surface(q), s);
+  }
+  // ASCII STL: with the mark it must still be recognised as ASCII ("solid" after it).
+  write_file(scratch("bom.stl"), bom + "solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n"
+                                        "vertex 0 1 0\nendloop\nendfacet\nendsolid x\n");
+  EXPECT_EQ(read_surface(scratch("bom.stl")).F.rows(), 1);
+  TetMesh m = grid_tets();
+  for (const char* ext : {".vtk", ".mesh", ".msh"}) {
+    const std::string p = scratch(std::string("bomv_plain") + ext), q = scratch(std::string("bomv") + ext);
+    write_volume(p, m);
+    write_file(q, bom + read_bytes(p));
+    expect_same(read_volume(q), m);
+  }
+  write_volume(scratch("bomtg.node"), m);
+  write_file(scratch("bomtg.node"), bom + read_bytes(scratch("bomtg.node")));
+  write_file(scratch("bomtg.ele"), bom + read_bytes(scratch("bomtg.ele")));
+  expect_same(read_volume(scratch("bomtg.node")), m);
+  write_file(scratch("bom_lm.txt"), bom + "3\n5\n");
+  EXPECT_EQ(read_landmarks(scratch("bom_lm.txt"), s.V), (std::vector<int>{3, 5}));
+  write_file(scratch("bom_pts.txt"), bom + "1 2 3\r\n\r\n  \r\n# c\r\n4 5 6\r\n");
+  const Eigen::MatrixXd P = read_points(scratch("bom_pts.txt"));
+  ASSERT_EQ(P.rows(), 2);
+  EXPECT_EQ(P(1, 2), 6.0);
+}
+
+TEST(IO, PointsFileErrorsNameTheLine) {
+  const std::string p = scratch("pts.txt");
+  write_file(p, "1 2 3\n4 5 6 7\n");
+  EXPECT_EQ(error_of([&] { read_points(p); }), p + ":2: expected 3 values (x y z), found more");
+  write_file(p, "1 2 3\n4 5\n");
+  EXPECT_EQ(error_of([&] { read_points(p); }), p + ":2: expected z, found end of line");
+  write_file(p, "# none\n\n");
+  EXPECT_EQ(error_of([&] { read_points(p); }), p + ": no points");
+}
+
+// VTK's own reader takes keywords in any case; so do we.
+TEST(IO, VtkKeywordsInAnyCase) {
+  TetMesh m = grid_tets();
+  const std::string p = scratch("kw.vtk");
+  write_volume(p, m);
+  std::string text = read_bytes(p);
+  for (const auto& [from, to] : {std::pair<std::string, std::string>{"POINTS", "points"}, {"CELLS", "cells"},
+                                 {"CELL_TYPES", "Cell_Types"}, {" double", " DOUBLE"}}) {
+    const size_t at = text.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    text.replace(at, from.size(), to);
+  }
+  write_file(p, text);
+  expect_same(read_volume(p), m);
+}
+
+// TetGen pairs in any letter case: the given file as named, its companion in the same case
+// (or in another if only that one exists).
+TEST(IO, TetgenExtensionsInAnyCase) {
+  TetMesh m = grid_tets();
+  write_volume(scratch("tgc.node"), m);
+  for (const auto& [node, ele] : {std::pair<std::string, std::string>{"Cap.Node", "Cap.Ele"},
+                                  {"Up.NODE", "Up.ELE"}, {"Mix.NODE", "Mix.ele"}}) {
+    std::filesystem::copy_file(scratch("tgc.node"), scratch(node));
+    std::filesystem::copy_file(scratch("tgc.ele"), scratch(ele));
+    expect_same(read_volume(scratch(node)), m);
+    expect_same(read_volume(scratch(ele)), m);
+  }
+}
+
+// Damage that used to read silently: "f1 2 3" (dropped as an unknown statement) and a .ele
+// header announcing 10 nodes per tet over 4-node lines.
+TEST(IO, FusedObjKeywordAndShortTenNodeTets) {
+  const std::string p = scratch("fused.obj");
+  write_surface(p, octahedron());
+  write_file(p, read_bytes(p) + "f1 2 3\n");
+  EXPECT_NE(error_of([&] { read_surface(p); }).find(": not an OBJ statement: 'f1' (missing space after 'f'?)"), std::string::npos)
+      << error_of([&] { read_surface(p); });
+  const std::string node = scratch("ten.node"), ele = scratch("ten.ele");
+  write_file(node, "5 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n5 1 1 1\n");
+  write_file(ele, "1 10 0\n1 1 2 3 4\n");
+  EXPECT_EQ(error_of([&] { read_volume(node); }), ele + ":2: expected tetrahedron node, found end of line");
+}

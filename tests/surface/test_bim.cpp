@@ -5,6 +5,8 @@
 #include "shapemap/surface/bim.h"
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <algorithm>
+#include <array>
 
 using namespace shapemap;
 
@@ -155,4 +157,41 @@ TEST(Bim, ConfidenceMatchesTheOneRingAreaRatioOnAStretchedPair) {
   std::printf("stretched pair: mean |c - c(one-ring)| %.4f, mean 1 - c %.4f\n", diff, spread);
   EXPECT_GT(spread, 0.05);  // the map does distort area: the test discriminates
   EXPECT_LT(diff, 0.25 * spread);
+}
+
+// Many landmarks: C(k,3) landmark triples are never built all at once (k = 1,500 gives
+// 561 million; building them took gigabytes); the seeded random removal of Sec. 6.2 picks
+// max_candidates distinct triples of distinct landmarks. With few landmarks every triple
+// is a candidate, in the order of three nested loops.
+TEST(Bim, LandmarkTriplesAreSampledWithoutBuildingThemAll) {
+  TriMesh A = make_sphere(1600);
+  BIMOptions o;
+  std::vector<int> lm = farthest_point_sampling_graph(A.V, A.F, 1500, 0);
+  const BIMSurface s = bim_prepare(A, "A", o, lm);
+  o.landmarks_A = o.landmarks_B = lm;
+  long long total = 0;
+  const std::vector<BIMCandidate> cand = bim_candidates(s, s, o, &total);
+  EXPECT_EQ(total, 1500LL * 1499 * 1498 / 6);
+  EXPECT_GT(int(cand.size()), o.max_candidates * 99 / 100);  // a few may have no Mobius map
+  EXPECT_LE(int(cand.size()), o.max_candidates);
+  std::vector<std::array<int, 3>> seen;
+  for (const BIMCandidate& c : cand) {
+    EXPECT_TRUE(c.source[0] < c.source[1] && c.source[1] < c.source[2] && c.source[2] < 1500);
+    EXPECT_EQ(c.source, c.target);
+    seen.push_back(c.source);
+  }
+  EXPECT_TRUE(std::is_sorted(seen.begin(), seen.end()));  // order of the loops kept
+  EXPECT_EQ(std::adjacent_find(seen.begin(), seen.end()), seen.end());  // distinct
+
+  std::vector<int> few(lm.begin(), lm.begin() + 8);
+  const BIMSurface s8 = bim_prepare(A, "A", BIMOptions{}, few);
+  BIMOptions o8;
+  o8.landmarks_A = o8.landmarks_B = few;
+  const std::vector<BIMCandidate> all = bim_candidates(s8, s8, o8, &total);
+  EXPECT_EQ(total, 56);
+  ASSERT_EQ(all.size(), 56u);
+  int k = 0;
+  for (int a = 0; a < 8; ++a)
+    for (int b = a + 1; b < 8; ++b)
+      for (int c = b + 1; c < 8; ++c, ++k) EXPECT_EQ(all[k].source, (std::array<int, 3>{a, b, c}));
 }
