@@ -12,6 +12,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <string>
 #include <string_view>
@@ -161,6 +162,11 @@ class Parser {
     if (*s == '+') ++s;
     double x = 0;
     auto r = std::from_chars(s, e, x);
+    if (r.ec == std::errc::result_out_of_range && r.ptr == e) {
+      // Underflow (1e-400) reads as 0 or a subnormal, as strtod gives it; overflow is an error.
+      x = std::strtod(std::string(s, e).c_str(), nullptr);
+      if (std::isfinite(x)) return x;
+    }
     if (r.ec == std::errc::result_out_of_range) fail(std::string(what) + " " + quote(tok) + " is out of range");
     if (r.ec != std::errc() || r.ptr != e) fail("expected " + std::string(what) + ", found " + quote(tok));
     if (!std::isfinite(x)) fail(std::string(what) + " is not finite (" + quote(tok) + ")");

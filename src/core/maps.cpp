@@ -1,11 +1,21 @@
 // Barycentric vertex-to-point maps: positions, validation, and the map file format
 // (docs/formats.md, "Map files").
 #include "shapemap/maps.h"
+#include <cstdio>
 #include "io_detail.h"
 #include "shapemap/error.h"
 #include "shapemap/io.h"
 
 namespace shapemap {
+
+namespace {
+// %.6g: "1e+308", not the 309 digits of std::to_string.
+std::string short_number(double x) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", x);
+  return buf;
+}
+}  // namespace
 
 using namespace detail;
 
@@ -54,12 +64,12 @@ void validate_map(const BarycentricMap& map, int num_source_vertices, int num_ta
         throw InputError(name + ": vertex " + std::to_string(i) + " has a non-finite barycentric coordinate");
       if (b < -tol)
         throw InputError(name + ": vertex " + std::to_string(i) + " has a negative barycentric coordinate (" +
-                         std::to_string(b) + ")");
+                         short_number(b) + ")");
       sum += b;
     }
     if (std::abs(sum - 1.0) > tol)
       throw InputError(name + ": vertex " + std::to_string(i) + " has barycentric coordinates summing to " +
-                       std::to_string(sum) + ", not 1");
+                       short_number(sum) + ", not 1");
   }
 }
 

@@ -3,6 +3,7 @@
 #include "io_test_util.h"
 #include "shapemap/error.h"
 #include "shapemap/io.h"
+#include "shapemap/maps.h"
 #include <gtest/gtest.h>
 #include <cstdint>
 #include <cstring>
@@ -560,4 +561,24 @@ TEST(IO, FusedObjKeywordAndShortTenNodeTets) {
   write_file(node, "5 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n5 1 1 1\n");
   write_file(ele, "1 10 0\n1 1 2 3 4\n");
   EXPECT_EQ(error_of([&] { read_volume(node); }), ele + ":2: expected tetrahedron node, found end of line");
+}
+
+// Numbers below the double range read as 0 (as strtod gives them); above it they are an
+// error. Messages print numbers short.
+TEST(IO, UnderflowReadsAsZeroAndMessagesStayShort) {
+  const std::string p = scratch("tiny.obj");
+  write_file(p, "v 1e-400 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  EXPECT_EQ(read_surface(p).V(0, 0), 0.0);
+  write_file(p, "v 1e400 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  EXPECT_EQ(error_of([&] { read_surface(p); }), p + ":1: vertex x '1e400' is out of range");
+  BarycentricMap m;
+  m.elem = Eigen::VectorXi::Zero(1);
+  m.bary = Eigen::MatrixXd(1, 3);
+  m.bary << 1e308, 0, 0;
+  try {
+    validate_map(m, 1, 1, 3, "m");
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), "m: vertex 0 has barycentric coordinates summing to 1e+308, not 1");
+  }
 }
