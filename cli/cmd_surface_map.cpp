@@ -103,12 +103,9 @@ int run_bim(const SurfaceMapArgs& a, const ElasticCliOptions& eo, const GlobalOp
   Inputs in = read_inputs(a);
   OutputDir out(a.out);
   BIMOptions o = bim_options(a, g, in);
-  {
-    // The library's input guard, before the progress line: bad input gives one line.
-    TriMesh ca = in.A, cb = in.B;
-    require_genus0_surface(ca, a.A, o.min_vertices);
-    require_genus0_surface(cb, a.B, o.min_vertices);
-  }
+  // The library's input guard, before the progress line: bad input gives one line.
+  check_surface_map_input(in.A, a.A, o.min_vertices, g);
+  check_surface_map_input(in.B, a.B, o.min_vertices, g);
   BarycentricMap truth;
   const bool has_truth = !eo.truth_ab.empty();
   if (has_truth) truth = read_checked_map(eo.truth_ab, in.A.num_vertices(), in.B.num_faces());

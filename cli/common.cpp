@@ -1,4 +1,5 @@
 #include "common.h"
+#include "shapemap/checks.h"
 #include "shapemap/error.h"
 #include "shapemap/io.h"
 #include "shapemap/render/report_html.h"
@@ -46,6 +47,18 @@ ProgressCallback make_progress(const GlobalOptions& g) {
 
 void info(const GlobalOptions& g, const std::string& msg) {
   if (!g.quiet) std::cerr << msg << "\n";
+}
+
+void check_surface_map_input(const TriMesh& mesh, const std::string& path, int min_vertices,
+                             const GlobalOptions& g) {
+  TriMesh copy = mesh;
+  require_genus0_surface(copy, path, min_vertices);
+  const MeshReport r = check_surface(mesh);
+  if (r.degenerate_elements > 0 || r.duplicate_vertices > 0)
+    info(g, path + ": note: " + std::to_string(r.degenerate_elements) + " zero-area faces and " +
+                std::to_string(r.duplicate_vertices) +
+                " vertices at the position of another; the map is unreliable near them (shapemap check " + path +
+                " lists the problems)");
 }
 
 TetMesh tetrahedralize_input(const TriMesh& surface, const TetrahedralizeOptions& opt,

@@ -70,6 +70,13 @@ ProgressCallback make_progress(const GlobalOptions& g);
 // A one-line message on stderr unless --quiet.
 void info(const GlobalOptions& g, const std::string& msg);
 
+// The input guard of `surface-map` (BIM and elastic): closed, manifold, connected, genus 0,
+// at least min_vertices (require_genus0_surface on a copy: the maps refer to the faces as
+// given). Zero-area faces and coincident vertices pass (the intrinsic methods run on the
+// connectivity) with a note, since the map near them is unreliable.
+void check_surface_map_input(const TriMesh& mesh, const std::string& path, int min_vertices,
+                             const GlobalOptions& g);
+
 // tetrahedralize() of the surface read from `path`; prints a note (unless quiet) when CGAL's
 // crease protection failed and the surface was meshed without it.
 TetMesh tetrahedralize_input(const TriMesh& surface, const TetrahedralizeOptions& opt,

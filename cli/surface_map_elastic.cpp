@@ -95,13 +95,8 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
   StageTimer timer;
   timer.start("read");
   TriMesh A = read_surface(args.A), B = read_surface(args.B);
-  {
-    // The same input guard as BIM (closed, manifold, connected, genus 0); the maps
-    // refer to the faces as given, so the checked (possibly reoriented) copies are dropped.
-    TriMesh a = A, b = B;
-    require_genus0_surface(a, args.A);
-    require_genus0_surface(b, args.B);
-  }
+  check_surface_map_input(A, args.A, args.bim.min_vertices, g);  // the same input guard as BIM
+  check_surface_map_input(B, args.B, args.bim.min_vertices, g);
   BarycentricMap truth;
   const bool has_truth = !o.truth_ab.empty();
   if (has_truth) truth = read_checked_map(o.truth_ab, A.num_vertices(), B.num_faces());

@@ -76,9 +76,26 @@ TEST(BadInputCli, SurfacesTheTetrahedralizerCannotMesh) {
   d.V.row(d.F(0, 1)) = d.V.row(d.F(0, 0));
   write_surface(t.p("d.obj"), d);
   expect_one_line_error(t, "tetrahedralize " + t.p("d.obj") + " -o " + t.p("o.vtk"), "degenerate");
-  expect_one_line_error(t, "ball " + t.p("d.obj") + " -o " + t.p("b"), "degenerate");
+  expect_one_line_error(t, "ball " + t.p("d.obj") + " -o " + t.p("b"), t.p("d.obj") + ": 2 degenerate");
   EXPECT_FALSE(fs::exists(t.dir / "o.vtk"));
   EXPECT_FALSE(fs::exists(t.dir / "b"));
+  // A vertex pushed through the far side: the surface crosses itself (Mesh_3 ran without end).
+  TriMesh x = s;
+  x.V.row(0) *= -1.5;
+  write_surface(t.p("x.obj"), x);
+  for (const std::string cmd : {"ball " + t.p("x.obj") + " -o " + t.p("b"),
+                                "volume-map " + t.p("x.obj") + " " + t.p("s.obj") + " -o " + t.p("b"),
+                                "register " + t.p("s.obj") + " " + t.p("x.obj") + " -o " + t.p("b")})
+    expect_one_line_error(t, cmd, t.p("x.obj") + ": the surface intersects or touches itself");
+  EXPECT_FALSE(fs::exists(t.dir / "b"));
+  // The intrinsic surface map runs on the connectivity and says what it saw.
+  {
+    const std::string err = t.p("note.txt");
+    const std::string cmd = std::string(SHAPEMAP_BINARY) + " --threads 1 surface-map " + t.p("d.obj") + " " +
+                            t.p("s.obj") + " -o " + t.p("sm") + " > /dev/null 2> " + err;  // not quiet: notes
+    ASSERT_EQ(std::system(cmd.c_str()), 0) << slurp(err);
+    EXPECT_NE(slurp(err).find(t.p("d.obj") + ": note: 2 zero-area faces"), std::string::npos) << slurp(err);
+  }
   // A surface scaled to zero: the message names the file.
   TriMesh z = s;
   z.V.setZero();
