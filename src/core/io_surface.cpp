@@ -567,6 +567,12 @@ TriMesh read_stl(const std::string& path) {
     P.fail("binary STL truncated: header says " + std::to_string(n) + " triangles (" +
            std::to_string((long long)expected) + " bytes), file has " + std::to_string(size) + " bytes");
   }
+  // A NUL byte means binary data behind a header that happens to start with "solid" (some
+  // writers put "solid" there): the size does not match the triangle count.
+  if (size >= 84 && std::memchr(data.data(), 0, size) != nullptr)
+    P.fail("binary STL (its header starts with 'solid') with a size that does not match: header says " +
+           std::to_string(n) + " triangles (" + std::to_string((long long)expected) + " bytes), file has " +
+           std::to_string(size) + " bytes");
   // ASCII
   if (Parser::has_utf8_bom(data)) P.skip_bytes(3, "byte-order mark");
   std::vector<int> poly;

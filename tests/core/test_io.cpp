@@ -298,7 +298,10 @@ TEST(IO, StlAsciiAndBinaryMergeVertices) {
   EXPECT_EQ(q.V.rows(), 4);
   EXPECT_EQ(q.F.rows(), 2);
   write_file(p, b.substr(0, b.size() - 10));
-  EXPECT_NE(error_of([&] { read_surface(p); }), "(no error)");
+  EXPECT_NE(error_of([&] { read_surface(p); }).find("binary STL (its header starts with 'solid') with a size that "
+                                                     "does not match: header says 2 triangles (184 bytes), file has 174"),
+            std::string::npos)
+      << error_of([&] { read_surface(p); });
   std::string c = b;
   c.replace(0, 5, "xxxxx");
   write_file(p, c.substr(0, c.size() - 10));
