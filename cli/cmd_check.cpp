@@ -6,6 +6,7 @@
 #include "shapemap/checks.h"
 #include "shapemap/error.h"
 #include "shapemap/io.h"
+#include "shapemap/volume/tetrahedralize.h"
 #include <iostream>
 
 namespace shapemap::cli {
@@ -85,8 +86,21 @@ Command register_check(CLI::App& app, GlobalOptions& g) {
     bool volume = is_volume_path(p);
     if (!volume && !is_surface_path(p))
       throw InputError(p + ": unknown mesh format (use .obj .off .ply .stl or .vtk .mesh .msh .node .ele)");
-    MeshReport r = volume ? check_volume(read_volume(p)) : check_surface(read_surface(p));
-    if (*json) std::cout << report_json(p, volume, r).dump(2) << "\n";
+    TriMesh surface;
+    if (!volume) surface = read_surface(p);
+    MeshReport r = volume ? check_volume(read_volume(p)) : check_surface(surface);
+    // Self-intersections of a closed surface (CGAL, exact): tetrahedralization meshes the
+    // inside by ray parity, which is not what such a surface was meant to bound.
+    int crossings = -1;  // -1: not a closed manifold, not tested
+    if (!volume && r.ok()) {
+      crossings = self_intersecting_face_pairs(surface);
+      if (crossings > 0)
+        r.problems.push_back(std::to_string(crossings) + (crossings == 1 ? " pair" : " pairs") +
+                             " of faces cross each other (self-intersections)");
+    }
+    nlohmann::json jr = report_json(p, volume, r);
+    if (!volume) jr["self_intersecting_face_pairs"] = crossings;
+    if (*json) std::cout << jr.dump(2) << "\n";
     else print_text(p, volume, r);
     if (r.ok()) return 0;
     std::string line = p + ": ";

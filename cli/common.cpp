@@ -72,6 +72,9 @@ TetMesh tetrahedralize_input(const TriMesh& surface, const TetrahedralizeOptions
     const std::string msg = e.what(), prefix = "surface: ";
     throw InputError(path + ": " + (msg.compare(0, prefix.size(), prefix) == 0 ? msg.substr(prefix.size()) : msg));
   }
+  if (ti.self_intersecting_pairs > 0 && !quiet)
+    std::cerr << path << ": note: the surface crosses itself (" << ti.self_intersecting_pairs
+              << " pairs of faces); meshed the region inside it by ray parity, without crease protection\n";
   if (!ti.creases_dropped.empty() && !quiet)
     std::cerr << path << ": note: sharp creases not protected (CGAL's crease protection failed: "
               << ti.creases_dropped << "); meshed without them\n";

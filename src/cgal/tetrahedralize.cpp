@@ -98,6 +98,19 @@ void insert_initial_points(C3t3& c3t3, const Domain& domain, const TriMesh& m, i
 Eigen::Vector3d to_eigen(const Point& p) { return {p.x(), p.y(), p.z()}; }
 
 // Sets `stop` after `seconds` unless destroyed first (Mesh_3 polls it between steps).
+// An output iterator that only counts what is written to it (the self-intersecting pairs).
+struct PairCounter {
+  int* n;
+  PairCounter& operator*() { return *this; }
+  PairCounter& operator++() { return *this; }
+  PairCounter operator++(int) { return *this; }
+  template <class T>
+  PairCounter& operator=(const T&) {
+    ++*n;
+    return *this;
+  }
+};
+
 class Watchdog {
  public:
   explicit Watchdog(double seconds)
@@ -329,22 +342,31 @@ TetMesh keep_odt_unless_defective(TetMesh smoothed,
   return smoothed;
 }
 
+int self_intersecting_face_pairs(const TriMesh& surface) {
+  cgal_internal::require_closed_manifold(surface, "surface");
+  int n = 0;
+  CGAL::Polygon_mesh_processing::self_intersections(to_surface_mesh(surface, "surface"), PairCounter{&n});
+  return n;
+}
+
 TetMesh tetrahedralize(const TriMesh& surface, const TetrahedralizeOptions& opt,
                        const ProgressCallback& progress, TetrahedralizeInfo* info) {
-  // Mesh_3's polyhedral domain needs a surface that bounds a volume: on one that crosses or
-  // touches itself (two vertices at one position, a vertex pushed through the opposite
-  // side) the refinement ran without end (measured: > 60 s on a 600-vertex sphere with one
-  // moved vertex). Checked once here, with exact predicates (CGAL PMP, box intersection).
-  cgal_internal::require_closed_manifold(surface, "surface");
-  if (CGAL::Polygon_mesh_processing::does_self_intersect(to_surface_mesh(surface, "surface")))
-    throw InputError("surface: the surface intersects or touches itself (faces cross, or two vertices share a "
-                     "position); it does not bound a volume that can be tetrahedralized");
-  TetMesh out = mesh_once(surface, opt, progress, info);
-  if (!(opt.optimize && opt.odt)) return out;
-  TetrahedralizeOptions plain = opt;
+  // A surface that crosses itself (real scans often do, locally: shrec07-302.off has 88
+  // crossing pairs) still bounds a region by ray parity, which the polyhedral domain meshes.
+  // Crease detection along the crossing curves is what crawled (a sphere with a vertex pushed
+  // through the far side: the crease protection ran to its 60 s budget), so it is skipped.
+  TetrahedralizeOptions o = opt;
+  const int crossings = self_intersecting_face_pairs(surface);
+  if (crossings > 0) o.faithful_boundary = false;
+  TetMesh out = mesh_once(surface, o, progress, info);
+  if (info) info->self_intersecting_pairs = crossings;
+  if (!(o.optimize && o.odt)) return out;
+  TetrahedralizeOptions plain = o;
   plain.odt = false;
   auto remesh_plain = [&](TetrahedralizeInfo* plain_info) {
-    return mesh_once(surface, plain, progress, plain_info);
+    TetMesh m = mesh_once(surface, plain, progress, plain_info);
+    if (plain_info) plain_info->self_intersecting_pairs = crossings;
+    return m;
   };
   return keep_odt_unless_defective(std::move(out), remesh_plain, info);
 }

@@ -33,7 +33,14 @@ struct TetrahedralizeInfo {
   bool odt_smoothed = false;       // the result is ODT-smoothed
   std::string odt_dropped;         // non-empty: the ODT-smoothed mesh failed check_volume
                                    // (its first problem); the result is meshed without ODT
+  int self_intersecting_pairs = 0; // > 0: the surface crosses itself (pairs of faces); the
+                                   // inside by ray parity was meshed without crease protection
 };
+
+// Pairs of faces of a closed manifold surface that intersect other than along the edges and
+// vertices they share (CGAL Polygon_mesh_processing::self_intersections, exact predicates).
+// Throws InputError if the surface is not a closed, oriented manifold.
+int self_intersecting_face_pairs(const TriMesh& surface);
 
 // V, F: closed, manifold, consistently oriented surface. Throws InputError if not.
 // The result has positively oriented tets and no inverted elements.
