@@ -9,6 +9,7 @@
 #include "shapemap/eval/volume_metrics.h"
 #include "shapemap/maps.h"
 #include "shapemap/volume/register.h"
+#include <algorithm>
 #include <cstdio>
 #include <tuple>
 
@@ -122,6 +123,15 @@ Command register_register(CLI::App& app, GlobalOptions& g) {
     out.commit();
     info(g, "register: d(phi) = " + std::to_string(r.d_phi) + " (" + std::to_string(100 * r.d_phi_relative) +
                 "% of A's bbox diagonal) -> " + out.final_path() + "/map_AB.txt");
+    if (vm.n_inv > 0 || vm21.n_inv > 0) {
+      char line[320];
+      std::snprintf(line, sizeof line,
+                    "register: note: the composed maps invert %d of A's tets (%.1f%%) and %d of B's (%.1f%%): "
+                    "the two ball maps differ by more than a rotation; volume-map A B --init ball repairs them",
+                    vm.n_inv, 100.0 * vm.n_inv / std::max(1, A.num_tets()), vm21.n_inv,
+                    100.0 * vm21.n_inv / std::max(1, B.num_tets()));
+      info(g, line);
+    }
     // phi is only as good as the two ball maps it composes.
     for (const auto& [w, mm, rr] : {std::tuple{std::string("register: A"), &mA, &r.ball_A},
                                     std::tuple{std::string("register: B"), &mB, &r.ball_B}}) {

@@ -67,6 +67,31 @@ VolumeInput load_volume_input(const std::string& path, const std::string& name, 
   return in;
 }
 
+// Landmarks of a volume input, in the numbering of the file the user gave: for a tet mesh its
+// vertices (x y z lines snap to the nearest boundary vertex); for a surface input its surface
+// vertices, carried to the nearest boundary vertex of the tet mesh made from it (their
+// numbering differs: Mesh_3 remeshes the surface).
+std::vector<int> volume_landmarks(const std::string& file, const VolumeInput& in, const TetBoundary& bd,
+                                  const std::string& input_path) {
+  const std::vector<int> cand(bd.to_volume.data(), bd.to_volume.data() + bd.to_volume.size());
+  if (!in.from_surface) return read_landmarks(file, in.mesh.V, cand);
+  const std::vector<int> on_surface = read_landmarks(file, in.surface.V);
+  std::vector<int> out;
+  for (size_t k = 0; k < on_surface.size(); ++k) {
+    const Eigen::RowVector3d x = in.surface.V.row(on_surface[k]);
+    int best = cand.front();
+    for (int v : cand)
+      if ((in.mesh.V.row(v) - x).squaredNorm() < (in.mesh.V.row(best) - x).squaredNorm()) best = v;
+    for (size_t j = 0; j < out.size(); ++j)
+      if (out[j] == best)
+        throw InputError(file + ": landmarks " + std::to_string(j + 1) + " and " + std::to_string(k + 1) +
+                         " fall on the same vertex of the tet mesh made from " + input_path +
+                         " (use more tets, --tets, or landmarks farther apart)");
+    out.push_back(best);
+  }
+  return out;
+}
+
 nlohmann::json metrics_json(const VolumeMapMetrics& m) {
   nlohmann::json j;
   j["num_tets"] = m.num_tets;
@@ -174,10 +199,8 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
     BarycentricMap i12, i21;
     std::string init_detail = init;
     if (init == "landmarks") {
-      std::vector<int> candA(bA.to_volume.data(), bA.to_volume.data() + bA.to_volume.size());
-      std::vector<int> candB(bB.to_volume.data(), bB.to_volume.data() + bB.to_volume.size());
-      std::vector<int> LA = read_landmarks(a->landmarks[0], A.V, candA);
-      std::vector<int> LB = read_landmarks(a->landmarks[1], B.V, candB);
+      std::vector<int> LA = volume_landmarks(a->landmarks[0], inA, bA, a->A);
+      std::vector<int> LB = volume_landmarks(a->landmarks[1], inB, bB, a->B);
       if (LA.size() != LB.size())
         throw InputError(a->landmarks[1] + ": " + std::to_string(LB.size()) + " landmarks but " +
                          a->landmarks[0] + " has " + std::to_string(LA.size()));
@@ -258,6 +281,15 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
     timer.start("metrics");
     VolumeMapMetrics m12 = volume_map_metrics(A, B, r.X12, &r.map12, &r.X21);
     VolumeMapMetrics m21 = volume_map_metrics(B, A, r.X21, &r.map21, &r.X12);
+    // The map files hold barycentric coordinates in the target's tets, so images that the
+    // free boundary left outside the target (Eq. 25 fits the boundary by a penalty) are
+    // snapped into it, and more tets can invert: the maps a user reads back are measured too.
+    const Eigen::MatrixXd F12 = map_positions(r.map12, B.V, B.T), F21 = map_positions(r.map21, A.V, A.T);
+    VolumeMapMetrics f12 = volume_map_metrics(A, B, F12, &r.map12, &F21);
+    VolumeMapMetrics f21 = volume_map_metrics(B, A, F21, &r.map21, &F12);
+    double snap12 = 0, snap21 = 0;  // largest move of an image by the snapping
+    for (int i = 0; i < A.num_vertices(); ++i) snap12 = std::max(snap12, (F12.row(i) - r.X12.row(i)).norm());
+    for (int i = 0; i < B.num_vertices(); ++i) snap21 = std::max(snap21, (F21.row(i) - r.X21.row(i)).norm());
 
     timer.start("write");
     write_map(out.path("map_AB.txt"), r.map12);
@@ -288,6 +320,7 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
     j["inputs"] = {{"A", a->A}, {"B", a->B}, {"A_vertices", A.num_vertices()}, {"A_tets", A.num_tets()},
                    {"B_vertices", B.num_vertices()}, {"B_tets", B.num_tets()},
                    {"A_tetrahedralized", inA.from_surface}, {"B_tetrahedralized", inB.from_surface}};
+    if (!a->landmarks.empty()) j["inputs"]["landmarks"] = a->landmarks;
     const auto& o = a->opt;
     j["parameters"] = {{"init", init_detail}, {"alpha", o.alpha}, {"gamma", o.gamma},
                        {"beta_start", o.beta_start}, {"beta_end", o.beta_end},
@@ -308,6 +341,9 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
     j["energy"] = {{"E", r.E}, {"E_ARAP", r.E_arap}, {"E_R", r.E_R}, {"E_P", r.E_P}, {"E_Q", r.E_Q},
                    {"outer_iterations", r.iterations}};
     j["metrics"] = {{"AB", metrics_json(m12)}, {"BA", metrics_json(m21)}};
+    j["metrics_map_files"] = {{"AB", metrics_json(f12)}, {"BA", metrics_json(f21)},
+                              {"max_snap_AB", snap12 / bbox_diagonal(B.V)},
+                              {"max_snap_BA", snap21 / bbox_diagonal(A.V)}};
     timer.start("pictures");
     const auto figures = volume_map_figures(A, r.X12, &B, &r.X21);
     timer.stop();
@@ -318,6 +354,15 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
                 ", d_avg^ " + std::to_string(m12.d_avg) + " / " + std::to_string(m21.d_avg) +
                 ", |det J| " + std::to_string(m12.det_mean) + " / " + std::to_string(m21.det_mean) +
                 ", " + std::to_string(timer.total()) + " s -> " + a->out);
+    if (f12.n_inv != m12.n_inv || f21.n_inv != m21.n_inv) {
+      char line[320];
+      std::snprintf(line, sizeof line,
+                    "volume-map: note: map_AB.txt / map_BA.txt snap images left outside the target into it "
+                    "(by up to %.2g / %.2g of the target's bounding-box diagonal): n_inv %d / %d there "
+                    "(report.json: metrics_map_files)",
+                    snap12 / bbox_diagonal(B.V), snap21 / bbox_diagonal(A.V), f12.n_inv, f21.n_inv);
+      info(g, line);
+    }
     return 0;
   };
   return c;

@@ -189,6 +189,7 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
                       {"A_faces", A.num_faces()}, {"B_vertices", B.num_vertices()},
                       {"B_faces", B.num_faces()}};
   if (has_truth) report["inputs"]["truth"] = o.truth_ab;
+  if (!args.landmarks.empty()) report["inputs"]["landmarks"] = args.landmarks;
   report["init"] = init_kind;
   report["parameters"] = {{"model", bij ? "bijective (Eq. 6)" : "injective (Eq. 4)"},
                           {"alpha", eo.alpha}, {"eta", eo.eta}, {"eta_choice", eta_choice},
@@ -267,6 +268,20 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
   out.commit();
   info(g, "elastic: " + std::to_string(r.outer_iterations) + " outer iterations, " +
               std::to_string(timer.total()) + " s; wrote " + out.final_path());
+  // The energy can go down while the maps get worse where the deformation Y does not reach
+  // the target (thin parts, far-from-isometric pairs): the projections P, Q then fold or
+  // collapse triangles. Say so when the final maps have more of them than the initial ones.
+  auto bad = [&](const char* when, const char* dir) {
+    const nlohmann::json& m = metrics[when][dir];
+    return m["flipped_triangles"].get<int>() + m["degenerate_triangles"].get<int>();
+  };
+  for (const char* dir : {"AB", "BA"}) {
+    if (!metrics["final"].contains(dir) || bad("final", dir) <= bad("initial", dir)) continue;
+    info(g, std::string("elastic: warning: the final ") + dir + " map has " + std::to_string(bad("final", dir)) +
+                " flipped or collapsed triangles against " + std::to_string(bad("initial", dir)) +
+                " in the initial one (report.json: metrics); a different bending weight (--elastic-eta, --elastic-preset) or a better "
+                "initial map may help");
+  }
   return 0;
 }
 

@@ -158,8 +158,10 @@ TEST(VolumeMapCli, SurfaceInputsWriteTheTetMeshesTheMapsIndex) {
     std::ofstream la(t.p("LA.txt")), lb(t.p("LB.txt"));
     la.precision(17);
     lb.precision(17);
+    // A's landmarks as vertex indices of the surface file (the tet mesh made from it has
+    // its own, fewer vertices), B's as positions.
     for (int v : {0, A.num_vertices() / 3, 2 * A.num_vertices() / 3, A.num_vertices() - 1}) {
-      la << A.V(v, 0) << " " << A.V(v, 1) << " " << A.V(v, 2) << "\n";
+      la << v << "\n";
       lb << TB(v, 0) << " " << TB(v, 1) << " " << TB(v, 2) << "\n";
     }
   }
@@ -173,6 +175,12 @@ TEST(VolumeMapCli, SurfaceInputsWriteTheTetMeshesTheMapsIndex) {
   validate_map(read_map(t.p("out/map_BA.txt")), TBm.num_vertices(), TA.num_tets(), 4, "map_BA");
   const TetMesh AonB = read_volume(t.p("out/A_on_B.vtk"));
   EXPECT_EQ(AonB.T, TA.T);
+  EXPECT_LT(TA.num_vertices(), A.num_vertices());  // so index 599 is the surface's, not the tets'
+  const nlohmann::json r = nlohmann::json::parse(std::ifstream(t.p("out/report.json")));
+  EXPECT_EQ(r["inputs"]["landmarks"].size(), 2u);
+  // The metrics of the map files as written (images snapped into the target's tets).
+  EXPECT_TRUE(r["metrics_map_files"]["AB"].contains("n_inv"));
+  EXPECT_GE(r["metrics_map_files"]["max_snap_AB"].get<double>(), 0.0);
   EXPECT_EQ(run("evaluate volume " + t.p("out/A.vtk") + " " + t.p("out/B.vtk") + " " + t.p("out/map_AB.txt") +
                 " -o " + t.p("eval.json")),
             0);
