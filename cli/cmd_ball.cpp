@@ -50,7 +50,7 @@ Command register_ball(CLI::App& app, GlobalOptions& g) {
     j["tetrahedralized"] = in.tetrahedralized;
     j["boundary_chords"] = {{"split", in.chords_split}, {"left", in.chords_left}};
     j["parameters"] = ball_parameters_json(a->opt);
-    j["parameters"]["split_chords"] = a->split_chords;
+    j["parameters"]["split_chords"] = a->split_chords || in.tetrahedralized;  // always for surfaces
     j["metrics"] = ball_metrics_json(m);
     j["metrics_after_vsem"] = ball_metrics_json(mv);
     j["optimization"] = ball_result_json(r);
