@@ -5,6 +5,20 @@
 
 namespace shapemap::cli {
 
+namespace {
+// Errors are one line (the contract scripts rely on): line breaks inside a message, e.g. from
+// a file name that contains one, are written as "\n".
+std::string one_line(std::string msg) {
+  std::string out;
+  for (char ch : msg) {
+    if (ch == '\n') out += "\\n";
+    else if (ch == '\r') out += "\\r";
+    else out += ch;
+  }
+  return out;
+}
+}  // namespace
+
 int run(const std::vector<std::string>& args) {
   CLI::App app{"shapemap: dense correspondences between 3D shapes (surfaces and volumes)"};
   app.require_subcommand(1);
@@ -31,7 +45,7 @@ int run(const std::vector<std::string>& args) {
     std::string msg = e.what();
     for (char& ch : msg)
       if (ch == '\n') ch = ' ';
-    std::cerr << "shapemap: error: " << msg << " (see --help)\n";
+    std::cerr << "shapemap: error: " << one_line(msg) << " (see --help)\n";
     return 2;
   }
   try {
@@ -40,13 +54,13 @@ int run(const std::vector<std::string>& args) {
       if (c.app->parsed()) return c.run();
     return 2;
   } catch (const InputError& e) {
-    std::cerr << "shapemap: error: " << e.what() << "\n";
+    std::cerr << "shapemap: error: " << one_line(e.what()) << "\n";
     return 2;
   } catch (const std::bad_alloc&) {
     std::cerr << "shapemap: internal error: out of memory\n";
     return 1;
   } catch (const std::exception& e) {
-    std::cerr << "shapemap: internal error: " << e.what() << "\n";
+    std::cerr << "shapemap: internal error: " << one_line(e.what()) << "\n";
     return 1;
   }
 }

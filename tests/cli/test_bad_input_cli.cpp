@@ -84,6 +84,8 @@ TEST(BadInputCli, SurfacesTheTetrahedralizerCannotMesh) {
   x.V.row(0) *= -1.5;
   write_surface(t.p("x.obj"), x);
   expect_one_line_error(t, "check " + t.p("x.obj"), "pairs of faces cross each other");
+  // A file name with a line break in it: still one line (the break written as \n).
+  expect_one_line_error(t, "check \"" + t.p("a") + "$(printf '\\nb.obj')\"", "a\\nb.obj: cannot open");
   // The intrinsic surface map runs on the connectivity and says what it saw.
   {
     const std::string err = t.p("note.txt");
