@@ -89,18 +89,23 @@ class Parser {
   }
 
   // ---- text ---------------------------------------------------------------------
-  // Skips blanks (space, tab, \r, \f, \v) but not newlines.
+  // Line ends: \n, \r\n, or a lone \r (old Mac files). The \r of \r\n is a blank.
+  bool newline_at(const char* q) const {
+    return q < end_ && (*q == '\n' || (*q == '\r' && (q + 1 >= end_ || q[1] != '\n')));
+  }
+  // Skips blanks (space, tab, \r before \n, \f, \v) but not newlines.
   void skip_blanks() {
-    while (p_ < end_ && (*p_ == ' ' || *p_ == '\t' || *p_ == '\r' || *p_ == '\f' || *p_ == '\v')) ++p_;
+    while (p_ < end_ && (*p_ == ' ' || *p_ == '\t' || *p_ == '\f' || *p_ == '\v' || (*p_ == '\r' && !newline_at(p_))))
+      ++p_;
   }
   // True at a newline, a comment, or the end (after skipping blanks).
   bool at_eol() {
     skip_blanks();
-    return p_ >= end_ || *p_ == '\n' || (comment && *p_ == comment);
+    return p_ >= end_ || newline_at(p_) || (comment && *p_ == comment);
   }
   // Moves past the next newline (or to the end).
   void skip_line() {
-    while (p_ < end_ && *p_ != '\n') ++p_;
+    while (p_ < end_ && !newline_at(p_)) ++p_;
     if (p_ < end_) {
       ++p_;
       ++line_;
@@ -111,11 +116,11 @@ class Parser {
     for (;;) {
       skip_blanks();
       if (p_ >= end_) return;
-      if (*p_ == '\n') {
+      if (newline_at(p_)) {
         ++p_;
         ++line_;
       } else if (comment && *p_ == comment) {
-        while (p_ < end_ && *p_ != '\n') ++p_;
+        while (p_ < end_ && !newline_at(p_)) ++p_;
       } else {
         return;
       }
@@ -144,7 +149,7 @@ class Parser {
   // The rest of the current line (without the newline), consumed with the newline.
   std::string_view rest_of_line() {
     const char* s = p_;
-    while (p_ < end_ && *p_ != '\n') ++p_;
+    while (p_ < end_ && !newline_at(p_)) ++p_;
     std::string_view r(s, size_t(p_ - s));
     if (p_ < end_) {
       ++p_;

@@ -5,6 +5,7 @@
 #include "shapemap/io.h"
 #include "shapemap/maps.h"
 #include <gtest/gtest.h>
+#include <algorithm>
 #include <cstdint>
 #include <cstring>
 
@@ -584,4 +585,20 @@ TEST(IO, UnderflowReadsAsZeroAndMessagesStayShort) {
   } catch (const InputError& e) {
     EXPECT_EQ(std::string(e.what()), "m: vertex 0 has barycentric coordinates summing to 1e+308, not 1");
   }
+}
+
+// Old Mac line ends (a lone \r) separate lines like \n and \r\n, with the same line numbers.
+TEST(IO, LoneCarriageReturnEndsALine) {
+  TriMesh s = octahedron();
+  for (const char* ext : {".obj", ".off"}) {
+    const std::string p = scratch(std::string("cr_plain") + ext), q = scratch(std::string("cr") + ext);
+    write_surface(p, s);
+    std::string text = read_bytes(p);
+    std::replace(text.begin(), text.end(), '\n', '\r');
+    write_file(q, text);
+    expect_same(read_surface(q), s);
+  }
+  const std::string q = scratch("cr_bad.obj");
+  write_file(q, "v 0 0 0\rv 1 0 0\rv 0 1 0\rf 1 2 9\r");
+  EXPECT_EQ(error_of([&] { read_surface(q); }), q + ":4: face index 9 out of range (3 vertices)");
 }
