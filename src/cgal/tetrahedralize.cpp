@@ -97,7 +97,6 @@ void insert_initial_points(C3t3& c3t3, const Domain& domain, const TriMesh& m, i
 
 Eigen::Vector3d to_eigen(const Point& p) { return {p.x(), p.y(), p.z()}; }
 
-// Sets `stop` after `seconds` unless destroyed first (Mesh_3 polls it between steps).
 // An output iterator that only counts what is written to it (the self-intersecting pairs).
 struct PairCounter {
   int* n;
@@ -111,6 +110,7 @@ struct PairCounter {
   }
 };
 
+// Sets `stop` after `seconds` unless destroyed first (Mesh_3 polls it between steps).
 class Watchdog {
  public:
   explicit Watchdog(double seconds)
@@ -351,8 +351,8 @@ int self_intersecting_face_pairs(const TriMesh& surface) {
 
 TetMesh tetrahedralize(const TriMesh& surface, const TetrahedralizeOptions& opt,
                        const ProgressCallback& progress, TetrahedralizeInfo* info) {
-  // A surface that crosses itself (real scans often do, locally: shrec07-302.off has 88
-  // crossing pairs) still bounds a region by ray parity, which the polyhedral domain meshes.
+  // A surface that crosses itself (real scans often do, locally: shrec07-302.off has 998
+  // crossing pairs by this count) still bounds a region by ray parity, which the polyhedral domain meshes.
   // Crease detection along the crossing curves is what crawled (a sphere with a vertex pushed
   // through the far side: the crease protection ran to its 60 s budget), so it is skipped.
   TetrahedralizeOptions o = opt;
