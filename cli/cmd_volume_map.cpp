@@ -122,6 +122,8 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
     std::vector<std::string> landmarks, surface_map, surface_map_meshes;
     int tets = 0;
     std::string auto_surface = "elastic";
+    std::string solver = "newton";
+    std::string boundary_stage = "auto";
     SymmetricVolumeMapOptions opt;
   };
   auto a = std::make_shared<Args>();
@@ -160,12 +162,26 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
   c.app->add_option("--xstep-iterations", a->opt.xstep_iterations, "L-BFGS iterations per X-step")
       ->check(non_negative())
       ->capture_default_str();
+  c.app->add_option("--solver", a->solver, "X-step solver (Sec. 5.2): newton (projected Newton, "
+                                           "analytic ARAP eigensystem, CHOLMOD) or lbfgs (the paper's)")
+      ->check(CLI::IsMember({"newton", "lbfgs"}))
+      ->capture_default_str();
+  c.app->add_option("--boundary-fixed-stage", a->boundary_stage,
+                    "Algorithm 1 stage 2 (lines 6-10, boundary of X fixed): on, off, or auto (off from "
+                    "landmarks, whose initial boundary is collapsed onto them; on from a surface map or "
+                    "the ball, as the authors' code does)")
+      ->check(CLI::IsMember({"auto", "on", "off"}))
+      ->capture_default_str();
+  c.app->add_option("--newton-iterations", a->opt.newton_iterations, "Newton iterations per X-step at most")
+      ->check(non_negative())
+      ->capture_default_str();
   c.app->add_flag("--boundary-to-boundary", a->opt.boundary_to_boundary,
                   "Hard boundary constraint in the P-step (Sec. 5.2)");
 
   c.run = [a, &g]() -> int {
     StageTimer timer;
     ProgressCallback progress = make_progress(g);
+    a->opt.solver = a->solver == "lbfgs" ? XStepSolver::Lbfgs : XStepSolver::Newton;
     OutputDir out(a->out);
     std::string init = a->init;
     if (init.empty()) init = !a->landmarks.empty() ? "landmarks" : !a->surface_map.empty() ? "surface-map" : "auto";
@@ -275,6 +291,8 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
       i21 = surface_initial_map(B, A, SB, SA, sBA);
     }
 
+    a->opt.fix_boundary_first =
+        a->boundary_stage == "on" || (a->boundary_stage == "auto" && init != "landmarks");
     timer.start("optimize");
     SymmetricVolumeMapResult r = symmetric_volume_map(A, B, i12, i21, a->opt, progress);
 
@@ -325,7 +343,9 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
     j["parameters"] = {{"init", init_detail}, {"alpha", o.alpha}, {"gamma", o.gamma},
                        {"beta_start", o.beta_start}, {"beta_end", o.beta_end},
                        {"beta_ramp_iterations", o.beta_ramp_iterations},
-                       {"max_iterations", o.max_iterations}, {"xstep_iterations", o.xstep_iterations},
+                       {"max_iterations", o.max_iterations}, {"solver", a->solver},
+                       {"newton_iterations", o.newton_iterations},
+                       {"boundary_fixed_stage", o.fix_boundary_first}, {"xstep_iterations", o.xstep_iterations},
                        {"grad_tol", o.grad_tol}, {"decrease_tol", o.decrease_tol},
                        {"repair_rings", o.repair_rings}, {"post_repair_steps", o.post_repair_steps},
                        {"boundary_to_boundary", o.boundary_to_boundary}};
@@ -334,7 +354,9 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
       stages.push_back({{"name", s.name}, {"iterations", s.iterations}, {"seconds", s.seconds},
                         {"energy", s.energy}, {"n_inv_AB", s.inverted12}, {"n_inv_BA", s.inverted21},
                         {"seconds_P_step", s.time_pstep}, {"seconds_X_step", s.time_xstep},
-                        {"lbfgs_iterations", s.lbfgs_iterations}, {"evaluations", s.evaluations},
+                        {"solver_iterations", s.lbfgs_iterations}, {"evaluations", s.evaluations},
+                        {"newton_seconds", {{"energy", s.newton_seconds[0]}, {"hessian", s.newton_seconds[1]},
+                                            {"factor", s.newton_seconds[2]}, {"solve", s.newton_seconds[3]}}},
                         {"stop_reason", s.stop_reason}, {"energy_history", s.energy_history},
                         {"gradient_history", s.gradient_history}});
     j["algorithm_stages"] = stages;

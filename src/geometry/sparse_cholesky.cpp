@@ -16,6 +16,7 @@ struct SparseCholesky::Impl {
   cholmod_common common;
   cholmod_factor* factor = nullptr;
   int n = 0;
+  bool numeric = false;  // the factor holds a successful numeric factorization
   Impl(SparseCholesky::Method method, SparseCholesky::Ordering ordering) {
     cholmod_start(&common);
     common.supernodal = method == SparseCholesky::Method::Simplicial ? CHOLMOD_SIMPLICIAL : CHOLMOD_SUPERNODAL;
@@ -32,7 +33,7 @@ struct SparseCholesky::Impl {
     cholmod_finish(&common);
   }
   // Lower-triangle view (stype = -1) of a compressed copy if needed.
-  void run_factorize(const Eigen::SparseMatrix<double>& A, bool analyze) {
+  void run_factorize(const Eigen::SparseMatrix<double>& A, bool analyze, bool numeric_too = true) {
     if (A.rows() != A.cols())
       throw Error("SparseCholesky: matrix is not square (" + std::to_string(A.rows()) + "x" +
                   std::to_string(A.cols()) + ")");
@@ -51,21 +52,24 @@ struct SparseCholesky::Impl {
       if (!factor || common.status < CHOLMOD_OK)
         throw Error("SparseCholesky: symbolic analysis failed (CHOLMOD status " +
                     std::to_string(common.status) + ")");
+      numeric = false;
     }
+    if (!numeric_too) return;
+    numeric = false;
     cholmod_factorize(&view, factor, &common);
     if (common.status == CHOLMOD_NOT_POSDEF || factor->minor < factor->n) {
-      const std::string where = std::to_string(factor->minor);
-      cholmod_free_factor(&factor, &common);
-      n = 0;
-      throw Error("SparseCholesky: matrix is not positive definite (failed at column " + where + ")");
+      // The analysis stays (same pattern, e.g. a shifted matrix, can be factorized next).
+      throw Error("SparseCholesky: matrix is not positive definite (failed at column " +
+                  std::to_string(factor->minor) + ")");
     }
     if (common.status < CHOLMOD_OK)
       throw Error("SparseCholesky: numeric factorization failed (CHOLMOD status " +
                   std::to_string(common.status) + ")");
+    numeric = true;
   }
   // X = A^{-1} B for a column-major n×k block.
   void run_solve(const double* B, int k, double* X) const {
-    if (!factor) throw Error("SparseCholesky: solve() before compute()");
+    if (!factor || !numeric) throw Error("SparseCholesky: solve() without a successful factorization");
     cholmod_common c;
     cholmod_start(&c);
     c.print = 0;
@@ -100,6 +104,11 @@ SparseCholesky& SparseCholesky::operator=(SparseCholesky&&) noexcept = default;
 void SparseCholesky::compute(const Eigen::SparseMatrix<double>& A) {
   if (!impl_) impl_ = std::make_unique<Impl>(method_, ordering_);
   impl_->run_factorize(A, true);
+}
+
+void SparseCholesky::analyze(const Eigen::SparseMatrix<double>& A) {
+  if (!impl_) impl_ = std::make_unique<Impl>(method_, ordering_);
+  impl_->run_factorize(A, true, false);
 }
 
 void SparseCholesky::factorize(const Eigen::SparseMatrix<double>& A) {

@@ -3,6 +3,7 @@
 #include "shapemap/error.h"
 #include "shapemap/geometry/jacobian.h"
 #include "shapemap/geometry/svd3.h"
+#include "shapemap/optim/block_hessian.h"
 #include <Eigen/Dense>
 #include <cmath>
 
@@ -107,6 +108,38 @@ double arap_distortion(const Eigen::Matrix3d& J, Eigen::Matrix3d* grad) {
   return f;
 }
 
+Eigen::Matrix<double, 12, 12> arap_tet_hessian(const Eigen::Matrix<double, 4, 3>& x,
+                                               const Eigen::Matrix3d& Dm_inv, double scale,
+                                               bool project) {
+  // J = sum_a x_a g_a^T with g_0 = -(sum of Dm_inv's rows), g_a = row a-1 of Dm_inv. With
+  // H_J = 2 I + sum_t mu_t q_t q_t^T (sarap.h: mu_t = lambda_t - 2 for the twists), block (a, b) of the tet Hessian is
+  // 2 (g_a . g_b) I_3 + sum_t mu_t (Q_t g_a)(Q_t g_b)^T: no 9×12 products needed.
+  Eigen::Matrix<double, 4, 3> G;
+  G.bottomRows<3>() = Dm_inv;
+  G.row(0) = -Dm_inv.colwise().sum();
+  Eigen::Matrix3d Ds;
+  for (int j = 0; j < 3; ++j) Ds.col(j) = (x.row(j + 1) - x.row(0)).transpose();
+  const SignedSVD3 s = signed_svd3(Ds * Dm_inv);
+  const Eigen::Matrix4d GG = G * G.transpose();
+  Eigen::Matrix<double, 12, 12> H = Eigen::Matrix<double, 12, 12>::Zero();
+  for (int a = 0; a < 4; ++a)
+    for (int b = 0; b < 4; ++b) H.block<3, 3>(3 * a, 3 * b).diagonal().setConstant(2.0 * GG(a, b));
+  const int pairs[3][2] = {{0, 1}, {0, 2}, {1, 2}};
+  for (const auto& p : pairs) {
+    const int j = p[0], k = p[1];
+    const double sum = s.S(j) + s.S(k);
+    double lambda = sum > 0 ? 2.0 - 4.0 / sum : 0.0;
+    if (project) lambda = std::max(lambda, 0.0);
+    if (lambda == 2.0) continue;
+    const Eigen::Matrix3d Q = (s.U.col(k) * s.V.col(j).transpose() - s.U.col(j) * s.V.col(k).transpose()) /
+                              std::sqrt(2.0);
+    Eigen::Matrix<double, 12, 1> v;
+    for (int a = 0; a < 4; ++a) v.segment<3>(3 * a) = Q * G.row(a).transpose();
+    H.noalias() += (lambda - 2.0) * v * v.transpose();
+  }
+  return scale * H;
+}
+
 void ArapEnergy::build(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T) {
   if (T.cols() != 4) throw Error("ArapEnergy: T must be m×4");
   n_ = int(V.rows());
@@ -196,6 +229,24 @@ double ArapEnergy::energy(const Eigen::MatrixXd& X, const std::vector<int>& tets
     }
   }
   return E;
+}
+
+void ArapEnergy::add_hessian(const Eigen::MatrixXd& X, double scale, BlockHessian& H,
+                             const std::vector<int>* tets) const {
+  const int m = tets ? int(tets->size()) : int(T_.rows());
+  if (X.rows() != n_ || X.cols() != 3) throw Error("ArapEnergy: X must be n×3");
+  tet_h_.resize(T_.rows());
+#pragma omp parallel for schedule(static)
+  for (int q = 0; q < m; ++q) {
+    const int k = tets ? (*tets)[q] : q;
+    Eigen::Matrix<double, 4, 3> x;
+    for (int a = 0; a < 4; ++a) x.row(a) = X.row(T_(k, a));
+    tet_h_[k] = arap_tet_hessian(x, Dm_inv_[k], scale * w_(k), true);
+  }
+  for (int q = 0; q < m; ++q) {
+    const int k = tets ? (*tets)[q] : q;
+    H.add_element(k, tet_h_[k]);
+  }
 }
 
 Eigen::VectorXd ArapEnergy::per_tet(const Eigen::MatrixXd& X) const {

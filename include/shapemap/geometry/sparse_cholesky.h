@@ -22,10 +22,15 @@ class SparseCholesky {
   SparseCholesky(SparseCholesky&&) noexcept;
   SparseCholesky& operator=(SparseCholesky&&) noexcept;
   // Analyzes the pattern and factors A (symmetric positive definite; lower or full).
-  // Throws shapemap::Error if A is not positive definite.
+  // Throws shapemap::Error if A is not positive definite (the analysis is kept: a shifted
+  // matrix with the same pattern can then be factorize()d).
   void compute(const Eigen::SparseMatrix<double>& A);
-  // Refactors a matrix with the same pattern as the last compute().
+  // Refactors a matrix with the same pattern as the last compute() or analyze().
   void factorize(const Eigen::SparseMatrix<double>& A);
+  // Symbolic analysis of A's pattern only (the values are not read). The fill-reducing
+  // ordering (METIS) is not safe to run on two threads at once: analyze before going
+  // parallel, then factorize() concurrently on separate objects.
+  void analyze(const Eigen::SparseMatrix<double>& A);
   Eigen::VectorXd solve(const Eigen::VectorXd& b) const;
   Eigen::MatrixXd solve(const Eigen::MatrixXd& B) const;
   int rows() const;

@@ -11,6 +11,13 @@
 //   c: total volume of the source mesh, v(T_k): rest volume of tet k.
 //
 //   dE/dX^{T_k} = w_k ((B V^{T_k})^{-T} B)^T (U diag(grad_sigma f) V^T)^T   (Eq. 26)
+//
+//   Hessian (projected Newton, issue 19): f = ||J - R||^2 has, in the signed SVD frame
+//   J = U diag(sigma) V^T, the eigenpairs (Smith, de Goes, Kim 2019, "Analytic Eigensystems
+//   for Isotropic Distortion Energies", Sec. 5): 2 on the 3 scaling and 3 flip modes, and
+//   2 - 4/(sigma_j + sigma_k) on the twist mode U (e_k e_j^T - e_j e_k^T) V^T / sqrt(2) of
+//   each pair j < k. With the signed convention sigma_j + sigma_k >= 0; clamping the twist
+//   eigenvalues at 0 gives the closest positive semi-definite matrix.
 #pragma once
 #include <Eigen/Core>
 #include <vector>
@@ -22,6 +29,15 @@ double arap_distortion(const Eigen::Vector3d& sigma, Eigen::Vector3d* grad = nul
 
 // Eq. 19 on a Jacobian (signed SVD inside); writes d f / d J (3×3) if grad != nullptr.
 double arap_distortion(const Eigen::Matrix3d& J, Eigen::Matrix3d* grad = nullptr);
+
+// d^2 f(J(x)) / dx^2 of one tet (12×12, corner-major: row 3a+c is coordinate c of corner a)
+// for J = [x1-x0, x2-x0, x3-x0] Dm_inv, times `scale`. With `project`, the twist eigenvalues are clamped at 0 (positive
+// semi-definite); without, exact (where sigma_j + sigma_k > 0).
+Eigen::Matrix<double, 12, 12> arap_tet_hessian(const Eigen::Matrix<double, 4, 3>& x,
+                                               const Eigen::Matrix3d& Dm_inv, double scale,
+                                               bool project = true);
+
+class BlockHessian;
 
 // Eq. 20 for one map of a fixed source tet mesh: precompute, then evaluate many X.
 // Evaluation is parallel over tets and deterministic (per-tet values are written into
@@ -42,6 +58,12 @@ class ArapEnergy {
   double energy(const Eigen::MatrixXd& X, const std::vector<int>& tets,
                 Eigen::MatrixXd* grad) const;
 
+  // Adds scale × the projected Hessian of E_ARAP (Eq. 20) at X to H (over all tets, or over
+  // `tets` when non-null). Per-tet Hessians are computed in parallel into scratch and added
+  // serially in tet order (deterministic).
+  void add_hessian(const Eigen::MatrixXd& X, double scale, BlockHessian& H,
+                   const std::vector<int>* tets = nullptr) const;
+
   // f_ARAP(J_k) per tet (m), without weights.
   Eigen::VectorXd per_tet(const Eigen::MatrixXd& X) const;
   // det J_k per tet (m); <= 0 means inverted or flat (Algorithm 1, line 13).
@@ -61,6 +83,7 @@ class ArapEnergy {
   std::vector<int> vt_start_, vt_list_;  // vertex -> 4*tet + corner, CSR, sorted
   mutable Eigen::VectorXd tet_e_;
   mutable std::vector<Eigen::Matrix<double, 4, 3>> tet_g_;
+  mutable std::vector<Eigen::Matrix<double, 12, 12>> tet_h_;
 };
 
 }  // namespace shapemap

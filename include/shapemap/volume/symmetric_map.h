@@ -20,6 +20,7 @@
 #include "shapemap/geometry/closest_point.h"
 #include "shapemap/maps.h"
 #include "shapemap/mesh.h"
+#include "shapemap/optim/block_hessian.h"
 #include "shapemap/progress.h"
 #include "shapemap/volume/sarap.h"
 #include <memory>
@@ -29,7 +30,15 @@
 
 namespace shapemap {
 
+// The X-step solver (Sec. 5.2 uses L-BFGS; Sec. 8.1 names a second-order method as the way
+// forward: projected Newton with the analytic ARAP eigensystem, issue 19).
+enum class XStepSolver { Newton, Lbfgs };
+
 struct SymmetricVolumeMapOptions {
+  XStepSolver solver = XStepSolver::Newton;
+  int newton_iterations = 2;   // Newton iterations per X-step at most (each ends earlier on
+                               // newton_rel_tol: a relative decrease of Eq. 25 below it)
+  double newton_rel_tol = 1e-7;
   double alpha = 0.5;          // Eq. 25, Sec. 5.5: rigidity (ARAP) vs reversibility (E_R)
   double gamma = 25.0;         // Eq. 25, Sec. 5.5: weight of the projection term E_P
   double beta_start = 0.25;    // Sec. 4.4: E_Q weight at the first iteration ...
@@ -68,7 +77,11 @@ struct SymmetricMapStage {
   double energy = 0;         // Eq. 25 at the end of the stage (weights of the last iteration)
   int inverted12 = 0, inverted21 = 0;  // det J <= 0 in X_12, X_21 at the end
   double time_pstep = 0, time_xstep = 0;  // seconds in P-steps / X-steps (stages 2, 4)
-  int lbfgs_iterations = 0, evaluations = 0; // X-step L-BFGS totals (stages 2, 4)
+  int lbfgs_iterations = 0, evaluations = 0; // X-step solver iterations and energy evaluations
+                                             // (stages 2, 4; Newton or L-BFGS)
+  double newton_seconds[4] = {0, 0, 0, 0};   // Newton X-steps, both directions: energy
+                                             // evaluations, Hessian assembly, factorization,
+                                             // solves
   std::string stop_reason;   // "gradient", "decrease", "iterations" (stages 2, 4)
   std::vector<double> energy_history, gradient_history;  // per outer iteration
 };
@@ -154,6 +167,13 @@ class DirectionalEnergy {
   // Eq. 25 (X_ij part). X: n_i×3; grad n_i×3 if non-null.
   double evaluate(const Eigen::MatrixXd& X, Eigen::MatrixXd* grad = nullptr,
                   Terms* terms = nullptr) const;
+  // Adds a positive semi-definite Hessian of evaluate() at X to H (pattern: M_i's tets, any
+  // free set): E_ARAP's per-tet Hessians with clamped twist eigenvalues (sarap.h); E_Q and
+  // E_R exactly (quadratic in X for fixed P); E_P,f exactly for the closest points of the
+  // last evaluation (2 n n^T on a face, 2 (I - e e^T) on an edge, 2 I at a vertex of dM_j);
+  // E_P,b by Gauss-Newton with the closest point's barycentric coordinates held (point to
+  // plane on a face of dF_i(X), point to point on an edge or a vertex).
+  void add_hessian(const Eigen::MatrixXd& X, BlockHessian& H) const;
   // ARAP only (Sec. 5.3) on the tets incident to `free_vertices`.
   const ArapEnergy& arap() const { return arap_; }
   const TetBoundary& boundary_i() const { return bi_; }
@@ -186,6 +206,7 @@ class DirectionalEnergy {
   mutable Eigen::MatrixXd Qf_, Dr_;
   mutable Eigen::VectorXd ef_, eb_, er_, eq_;
   mutable std::vector<ClosestPointResult> hits_f_, hits_b_;
+  mutable Eigen::MatrixXd last_X_;  // X of the last evaluation (the hits above belong to it)
 };
 
 }  // namespace shapemap

@@ -1,0 +1,298 @@
+#!/usr/bin/python3
+"""Symmetric volume maps on real shapes (issue 19), run through the command-line tool.
+
+Pairs (the real ones read ../shared/data, or $SHAPEMAP_DATA; skipped when it is absent):
+  airplane -> bird   shrec07-61 -> 248, the data's 3 landmarks       (--init landmarks)
+  cat -> lion        tosca-cat-00 -> tosca-lion-00, 20 landmarks     (--init landmarks)
+  glasses 41 -> 44   BIM + elastic surface map, computed once         (--init surface-map)
+  busts 302 -> 314   BIM + elastic surface map, computed once         (--init surface-map)
+  gen-30k, gen-100k  generated non-isometric creature pairs with ground truth, 12 landmarks
+                     at farthest points of A and their true images    (--init landmarks)
+Surfaces are tetrahedralized once (`tetrahedralize --tets 30000`; the paper's pair has 30k /
+27k tets) and cached with the surface maps in WORK/cache, so that the solvers compared
+start from the same tet meshes and the same initial maps. Landmark indices of a surface are
+written as x y z lines, which volume-map snaps to the nearest boundary vertex.
+
+Per pair and solver (default: newton and lbfgs, --solvers; lbfgs runs as the solver was
+before issue 19, with the boundary-fixed stage from landmarks too), per direction: n_inv of the
+positions X, d^max and d^avg (x1e-2), mean |det J^|, E_R and E_ARAP (x1e-3), n_inv of the map
+files, and the run's time (the optimization alone and the command), peak memory, the stages'
+stop reasons. Then the issue's targets, newton against lbfgs on each real pair:
+d^max, d^avg <= 1/2, E_R <= 1/5, n_inv <= 5, map files' n_inv = X's, every stage stopped by
+its convergence test; and time: <= 60 s for gen-30k, <= 300 s for gen-100k, <= 4 GB.
+
+Usage: bench/volume_map_real.sh [--pairs a,b,...] [--solvers newton,lbfgs] [--build DIR]
+                                [--work DIR] [--extra "ARGS"]
+Writes WORK/volume_real.md (default bench/out/volume_real) and WORK/results.json.
+Exit status 1 when a run failed or a target is missed, 0 otherwise.
+"""
+import argparse
+import json
+import math
+import os
+import shlex
+import subprocess
+import sys
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def read_off_or_obj_vertices(path):
+    """Vertex positions of an OFF or OBJ surface (enough of each grammar for the data)."""
+    with open(path) as f:
+        text = f.read().split("\n")
+    if path.endswith(".obj"):
+        return [tuple(map(float, l.split()[1:4])) for l in text if l.startswith("v ")]
+    tokens = []
+    for line in text:
+        line = line.split("#")[0].strip()
+        if line:
+            tokens.extend(line.split())
+    assert tokens[0].upper().endswith("OFF"), path
+    nv = int(tokens[1])
+    vals = tokens[4:4 + 3 * nv]
+    return [tuple(map(float, vals[3 * i:3 * i + 3])) for i in range(nv)]
+
+
+def write_xyz(path, points):
+    with open(path, "w") as f:
+        for p in points:
+            f.write("%.17g %.17g %.17g\n" % p)
+
+
+def landmark_xyz(surface, index_file, out):
+    V = read_off_or_obj_vertices(surface)
+    with open(index_file) as f:
+        idx = [int(l.split()[0]) for l in f if l.strip()]
+    write_xyz(out, [V[i] for i in idx])
+
+
+class Runner:
+    def __init__(self, build, work, log):
+        self.bin = os.path.join(build, "shapemap")
+        self.work = work
+        self.log = open(log, "a")
+
+    def run(self, args, timeout=3600):
+        """Runs the CLI under GNU time; returns (exit code, wall seconds, peak MB)."""
+        rss_file = os.path.join(self.work, "time.txt")
+        cmd = ["/usr/bin/time", "-f", "%M", "-o", rss_file, self.bin] + args
+        self.log.write("== " + " ".join(shlex.quote(a) for a in cmd) + "\n")
+        self.log.flush()
+        t0 = time.time()
+        try:
+            p = subprocess.run(cmd, stdout=self.log, stderr=self.log, timeout=timeout,
+                               env=dict(os.environ, OMP_WAIT_POLICY="passive"))
+            code = p.returncode
+        except subprocess.TimeoutExpired:
+            code = -1
+        wall = time.time() - t0
+        peak = None
+        try:
+            with open(rss_file) as f:
+                peak = int(f.read().strip().split("\n")[-1]) / 1024.0
+        except (OSError, ValueError):
+            pass
+        return code, wall, peak
+
+    def need(self, path, args, what):
+        if os.path.exists(path):
+            return True
+        code, wall, _ = self.run(args)
+        if code != 0:
+            print("bench: %s failed (exit %d), see %s" % (what, code, self.log.name), file=sys.stderr)
+            return False
+        print("bench: %s: %.1f s" % (what, wall), file=sys.stderr)
+        return True
+
+
+def prepare_real(r, data, cache, name, a, b, landmarks):
+    """Tet meshes (cached), and the init arguments of volume-map."""
+    ta, tb = os.path.join(cache, a + ".vtk"), os.path.join(cache, b + ".vtk")
+    sa, sb = os.path.join(data, a + ".off"), os.path.join(data, b + ".off")
+    for s, t in ((sa, ta), (sb, tb)):
+        if not r.need(t, ["tetrahedralize", s, "-o", t, "--tets", "30000", "--quiet"], "tetrahedralize " + s):
+            return None
+    if landmarks:
+        la, lb = os.path.join(cache, a + ".xyz"), os.path.join(cache, b + ".xyz")
+        landmark_xyz(sa, os.path.join(data, a + ".landmarks"), la)
+        landmark_xyz(sb, os.path.join(data, b + ".landmarks"), lb)
+        return ta, tb, ["--init", "landmarks", "--landmarks", la, lb], None
+    smap = os.path.join(cache, name + "-surface-map")
+    if not r.need(os.path.join(smap, "map_BA.txt"),
+                  ["surface-map", sa, sb, "-o", smap, "--method", "elastic", "--quiet"],
+                  "surface map (BIM + elastic) " + name):
+        return None
+    return ta, tb, ["--init", "surface-map", "--surface-map", os.path.join(smap, "map_AB.txt"),
+                    os.path.join(smap, "map_BA.txt"), "--surface-map-meshes", sa, sb], None
+
+
+def prepare_generated(r, cache, name, tets, verts):
+    d = os.path.join(cache, name)
+    if not r.need(os.path.join(d, "truth_vol_AB.txt"),
+                  ["generate", "-o", d, "--shape", "pair", "--kind", "non-isometric", "--seed", "1",
+                   "--vertices", str(verts), "--tets", "--tet-count", str(tets), "--quiet"],
+                  "generate " + name):
+        return None
+    # Landmarks: 12 farthest points of A's surface and their true images on B (truth_AB.txt:
+    # face of B + barycentric per vertex of A).
+    VA = read_off_or_obj_vertices(os.path.join(d, "A.obj"))
+    VB = read_off_or_obj_vertices(os.path.join(d, "B.obj"))
+    FB = []
+    with open(os.path.join(d, "B.obj")) as f:
+        for l in f:
+            if l.startswith("f "):
+                FB.append([int(t.split("/")[0]) - 1 for t in l.split()[1:4]])
+    with open(os.path.join(d, "truth_AB.txt")) as f:
+        rows = [l.split() for l in f if l.strip() and not l.startswith("#")][1:]  # after the header
+    chosen = [0]
+    dist = [math.dist(VA[0], v) for v in VA]
+    while len(chosen) < 12:
+        i = max(range(len(VA)), key=lambda k: dist[k])
+        chosen.append(i)
+        dist = [min(dist[k], math.dist(VA[i], VA[k])) for k in range(len(VA))]
+    img = []
+    for i in chosen:
+        face, bary = int(rows[i][0]), list(map(float, rows[i][1:4]))
+        img.append(tuple(sum(bary[c] * VB[FB[face][c]][x] for c in range(3)) for x in range(3)))
+    la, lb = os.path.join(d, "LA.xyz"), os.path.join(d, "LB.xyz")
+    write_xyz(la, [VA[i] for i in chosen])
+    write_xyz(lb, img)
+    return (os.path.join(d, "A.vtk"), os.path.join(d, "B.vtk"),
+            ["--init", "landmarks", "--landmarks", la, lb], os.path.join(d, "truth_vol_AB.txt"))
+
+
+PAIRS = {
+    "airplane-bird": ("real", "shrec07-61", "shrec07-248", True),
+    "cat-lion": ("real", "tosca-cat-00", "tosca-lion-00", True),
+    "glasses": ("real", "shrec07-41", "shrec07-44", False),
+    "busts": ("real", "shrec07-302", "shrec07-314", False),
+    "gen-30k": ("generated", 30000, 6000),
+    "gen-100k": ("generated", 100000, 16000),
+}
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--pairs", default=",".join(PAIRS))
+    ap.add_argument("--solvers", default="newton,lbfgs")
+    ap.add_argument("--build", default=os.environ.get("BUILD", os.path.join(ROOT, "build")))
+    ap.add_argument("--work", default=os.path.join(ROOT, "bench", "out", "volume_real"))
+    ap.add_argument("--extra", default="", help="more volume-map arguments, for every run")
+    args = ap.parse_args()
+    data = os.environ.get("SHAPEMAP_DATA", os.path.join(ROOT, "..", "shared", "data"))
+    cache = os.path.join(args.work, "cache")
+    os.makedirs(cache, exist_ok=True)
+    r = Runner(args.build, args.work, os.path.join(args.work, "log.txt"))
+    if not os.access(r.bin, os.X_OK):
+        sys.exit("bench: %s not found (make build first)" % r.bin)
+    results, failed = [], 0
+    for name in args.pairs.split(","):
+        spec = PAIRS[name]
+        if spec[0] == "real":
+            if not os.path.isdir(data):
+                print("bench: %s skipped (no %s)" % (name, data), file=sys.stderr)
+                continue
+            prep = prepare_real(r, data, cache, name, spec[1], spec[2], spec[3])
+        else:
+            prep = prepare_generated(r, cache, name, spec[1], spec[2])
+        if prep is None:
+            failed += 1
+            continue
+        A, B, init, truth = prep
+        for solver in args.solvers.split(","):
+            out = os.path.join(args.work, name + "-" + solver)
+            # "lbfgs" is the solver as it was before issue 19: L-BFGS X-steps, stage 2 always.
+            today = ["--boundary-fixed-stage", "on"] if solver == "lbfgs" else []
+            code, wall, peak = r.run(["volume-map", A, B, "-o", out, "--solver", solver, "--quiet"] + today + init +
+                                     shlex.split(args.extra))
+            row = {"pair": name, "solver": solver, "exit_code": code, "seconds": wall, "peak_mb": peak}
+            if code == 0:
+                rep = json.load(open(os.path.join(out, "report.json")))
+                row["metrics"] = rep["metrics"]
+                row["map_files"] = rep["metrics_map_files"]
+                row["optimize_seconds"] = rep["timings"].get("optimize")
+                row["stages"] = [(s["name"], s["stop_reason"], s["iterations"]) for s in rep["algorithm_stages"]]
+                if truth:
+                    tr = os.path.join(out, "eval.json")
+                    c2, _, _ = r.run(["evaluate", "volume", A, B, os.path.join(out, "map_AB.txt"), "--truth", truth,
+                                      "-o", tr, "--quiet"])
+                    if c2 == 0:
+                        row["truth"] = json.load(open(tr))["metrics"]
+            else:
+                failed += 1
+            results.append(row)
+            print("bench: %s %s: exit %d, %.1f s" % (name, solver, code, wall), file=sys.stderr)
+    json.dump(results, open(os.path.join(args.work, "results.json"), "w"), indent=1)
+    missed = report(results, os.path.join(args.work, "volume_real.md"))
+    sys.exit(1 if failed or missed else 0)
+
+
+def fmt(x, scale=1.0, digits=3):
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return "-"
+    return "%.*g" % (digits, x * scale)
+
+
+def report(results, path):
+    lines = ["| pair | solver | dir | n_inv | n_inv files | d^max x1e-2 | d^avg x1e-2 | mean abs det J^ | "
+             "E_R x1e-3 | E_ARAP x1e-3 | optimize s | total s | peak MB | stages (stop, iterations) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for row in results:
+        if row["exit_code"] != 0:
+            lines.append("| %s | %s | | failed (exit %d) | | | | | | | | %.1f | | |" %
+                         (row["pair"], row["solver"], row["exit_code"], row["seconds"]))
+            continue
+        for d in ("AB", "BA"):
+            m, f = row["metrics"][d], row["map_files"][d]
+            stages = ", ".join("%s %s %d" % s for s in row["stages"][1:]) if d == "AB" else ""
+            lines.append("| %s | %s | %s | %d | %d | %s | %s | %s | %s | %s | %s | %s | %s | %s |" % (
+                row["pair"], row["solver"], d, m["n_inv"], f["n_inv"], fmt(m["d_max_hat"], 100),
+                fmt(m["d_avg_hat"], 100), fmt(m["det_J_mean"], 1, 4), fmt(m.get("E_R"), 1000),
+                fmt(m["E_ARAP"], 1000), fmt(row["optimize_seconds"], 1, 3) if d == "AB" else "",
+                fmt(row["seconds"], 1, 3) if d == "AB" else "",
+                fmt(row["peak_mb"], 1, 4) if d == "AB" else "", stages))
+    # Targets (issue 19).
+    checks = []
+    by = {(r["pair"], r["solver"]): r for r in results if r["exit_code"] == 0}
+    for (pair, solver), row in sorted(by.items()):
+        if solver != "newton":
+            continue
+        base = by.get((pair, "lbfgs"))
+        for d in ("AB", "BA"):
+            m, f = row["metrics"][d], row["map_files"][d]
+            checks.append(("%s %s n_inv <= 5" % (pair, d), m["n_inv"] <= 5, str(m["n_inv"])))
+            checks.append(("%s %s map files' n_inv = X's" % (pair, d), f["n_inv"] == m["n_inv"],
+                           "%d vs %d" % (f["n_inv"], m["n_inv"])))
+            if base and not pair.startswith("gen"):
+                b = base["metrics"][d]
+                for key, ratio in (("d_max_hat", 0.5), ("d_avg_hat", 0.5), ("E_R", 0.2)):
+                    ok = m[key] <= ratio * b[key]
+                    checks.append(("%s %s %s <= %g x lbfgs" % (pair, d, key, ratio), ok,
+                                   "%.3g vs %.3g" % (m[key], b[key])))
+        conv = all(s[1] in ("gradient", "decrease", "") for s in row["stages"])
+        checks.append(("%s stages end on convergence" % pair, conv,
+                       ", ".join("%s:%s" % (s[0], s[1]) for s in row["stages"] if s[1])))
+        limit = {"gen-30k": 60, "gen-100k": 300}.get(pair)
+        if limit:
+            checks.append(("%s optimize <= %d s" % (pair, limit), row["optimize_seconds"] <= limit,
+                           "%.1f s" % row["optimize_seconds"]))
+        if row["peak_mb"]:
+            checks.append(("%s peak <= 4 GB" % pair, row["peak_mb"] <= 4096, "%.0f MB" % row["peak_mb"]))
+    lines.append("")
+    lines.append("| target | met | measured |")
+    lines.append("|---|---|---|")
+    for name, ok, val in checks:
+        lines.append("| %s | %s | %s |" % (name, "PASS" if ok else "FAIL", val))
+    missed = sum(1 for c in checks if not c[1])
+    lines.append("")
+    lines.append("%d of %d targets met" % (len(checks) - missed, len(checks)))
+    text = "\n".join(lines) + "\n"
+    open(path, "w").write(text)
+    print(text)
+    return missed
+
+
+if __name__ == "__main__":
+    main()

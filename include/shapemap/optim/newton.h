@@ -1,0 +1,55 @@
+// Projected Newton with a backtracking line search (Nocedal & Wright Alg. 3.1 on the Newton
+// direction; "projected": the caller assembles a positive semi-definite approximation of the
+// Hessian, e.g. per-element Hessians with negative eigenvalues clamped, Teran et al. 2005,
+// Smith, de Goes, Kim 2019). The pattern is fixed (BlockHessian), so CHOLMOD's symbolic
+// analysis runs once per solver object and each iteration only refactors.
+#pragma once
+#include "shapemap/geometry/sparse_cholesky.h"
+#include "shapemap/optim/block_hessian.h"
+#include <Eigen/Core>
+#include <functional>
+#include <string>
+
+namespace shapemap {
+
+struct NewtonOptions {
+  int max_iterations = 20;
+  double grad_tol = 1e-10;     // stop when ||g||_2 < grad_tol
+  double f_rel_tol = 1e-9;     // stop when f_old - f_new < f_rel_tol * max(1e-300, |f_old|)
+  double c1 = 1e-4;            // Armijo sufficient decrease
+  int max_line_search = 30;    // halvings of the step before giving up
+  double max_step = 0;         // > 0: scale the Newton step so that no unknown moves further
+                               // than this (e.g. a fraction of the mesh's edge length)
+};
+
+struct NewtonResult {
+  int iterations = 0, evaluations = 0, factorizations = 0;
+  double f = 0, grad_norm = 0;  // at the final x; grad_norm Euclidean
+  std::string stop;             // "gradient", "decrease", "iterations", "line search"
+  double seconds_value = 0, seconds_hessian = 0, seconds_factor = 0, seconds_solve = 0;
+};
+
+// f(x, g): value, and the gradient into g when g != nullptr (g sized like x).
+using NewtonValue = std::function<double(const Eigen::VectorXd& x, Eigen::VectorXd* g)>;
+// Fills H (already zeroed) with a positive semi-definite Hessian approximation at x.
+using NewtonHessian = std::function<void(const Eigen::VectorXd& x, BlockHessian& H)>;
+
+class ProjectedNewton {
+ public:
+  ProjectedNewton() = default;
+  // Runs CHOLMOD's symbolic analysis of the pattern here (not thread-safe: METIS), so that
+  // minimize() may run concurrently on separate objects.
+  explicit ProjectedNewton(BlockHessian pattern);
+  BlockHessian& hessian() { return H_; }
+  // Minimizes f from x (length 3·H.num_free()) in place. The Hessian gets a small diagonal
+  // shift when CHOLMOD finds it indefinite (rounding), grown until it factors.
+  NewtonResult minimize(const NewtonValue& f, const NewtonHessian& hess, Eigen::VectorXd& x,
+                        const NewtonOptions& opt = {});
+
+ private:
+  BlockHessian H_;
+  SparseCholesky chol_{SparseCholesky::Method::Supernodal, SparseCholesky::Ordering::NestedDissection};
+  Eigen::VectorXd g_, g_new_, x_new_, d_;
+};
+
+}  // namespace shapemap

@@ -1,0 +1,117 @@
+// Projected Newton with backtracking (newton.h).
+#include "shapemap/optim/newton.h"
+#include "shapemap/error.h"
+#include <chrono>
+#include <cmath>
+
+namespace shapemap {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+// Mean of the diagonal of a lower-triangle CSC matrix (its scale, for the shift).
+double mean_diagonal(const Eigen::SparseMatrix<double>& H) {
+  double s = 0;
+  for (int j = 0; j < H.outerSize(); ++j)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(H, j); it; ++it)
+      if (it.row() == j) s += it.value();
+  return H.rows() > 0 ? s / double(H.rows()) : 0.0;
+}
+}  // namespace
+
+ProjectedNewton::ProjectedNewton(BlockHessian pattern) : H_(std::move(pattern)) {
+  if (H_.num_free() > 0) chol_.analyze(H_.matrix());
+}
+
+NewtonResult ProjectedNewton::minimize(const NewtonValue& f, const NewtonHessian& hess,
+                                       Eigen::VectorXd& x, const NewtonOptions& opt) {
+  const int N = 3 * H_.num_free();
+  if (x.size() != N) throw Error("ProjectedNewton: x has the wrong length");
+  NewtonResult res;
+  g_.resize(N);
+  g_new_.resize(N);
+  auto t = Clock::now();
+  double fx = f(x, &g_);
+  res.seconds_value += since(t);
+  ++res.evaluations;
+  res.f = fx;
+  res.grad_norm = g_.norm();
+  if (N == 0) {
+    res.stop = "gradient";
+    return res;
+  }
+  for (int it = 0; it < opt.max_iterations; ++it) {
+    if (res.grad_norm < opt.grad_tol) {
+      res.stop = "gradient";
+      return res;
+    }
+    // Newton direction: H d = -g, H positive semi-definite (shifted when it does not factor).
+    t = Clock::now();
+    H_.set_zero();
+    hess(x, H_);
+    res.seconds_hessian += since(t);
+    t = Clock::now();
+    double shift = 0;
+    for (int attempt = 0;; ++attempt) {
+      try {
+        chol_.factorize(H_.matrix());  // the analysis of the constructor
+        ++res.factorizations;
+        break;
+      } catch (const Error&) {
+        if (attempt >= 12) throw Error("ProjectedNewton: the Hessian does not factor even when shifted");
+        const double add = shift == 0 ? 1e-10 * std::max(1e-300, std::abs(mean_diagonal(H_.matrix()))) : 9 * shift;
+        H_.add_diagonal(add);
+        shift += add;
+      }
+    }
+    res.seconds_factor += since(t);
+    t = Clock::now();
+    d_ = -chol_.solve(g_);
+    res.seconds_solve += since(t);
+    double slope = g_.dot(d_);
+    if (!(slope < 0) || !d_.allFinite()) {  // not a descent direction (rounding): steepest descent
+      d_ = -g_;
+      slope = -g_.squaredNorm();
+    }
+    double step = 1.0;
+    if (opt.max_step > 0) {
+      const double longest = d_.lpNorm<Eigen::Infinity>();
+      if (longest > opt.max_step) step = opt.max_step / longest;
+    }
+    // Backtracking (Armijo) on the full energy.
+    bool accepted = false;
+    double f_new = fx;
+    t = Clock::now();
+    for (int ls = 0; ls < opt.max_line_search; ++ls) {
+      x_new_ = x + step * d_;
+      f_new = f(x_new_, &g_new_);
+      ++res.evaluations;
+      if (std::isfinite(f_new) && f_new <= fx + opt.c1 * step * slope) {
+        accepted = true;
+        break;
+      }
+      step *= 0.5;
+    }
+    res.seconds_value += since(t);
+    ++res.iterations;
+    if (!accepted) {
+      // No decrease along d: x is where rounding ends the descent. Keep it.
+      res.stop = "line search";
+      return res;
+    }
+    const double decrease = fx - f_new;
+    x.swap(x_new_);
+    g_.swap(g_new_);
+    fx = f_new;
+    res.f = fx;
+    res.grad_norm = g_.norm();
+    if (decrease < opt.f_rel_tol * std::max(1e-300, std::abs(fx + decrease))) {
+      res.stop = "decrease";
+      return res;
+    }
+  }
+  res.stop = res.grad_norm < opt.grad_tol ? "gradient" : "iterations";
+  return res;
+}
+
+}  // namespace shapemap

@@ -1,0 +1,216 @@
+// The fixed-pattern block Hessian (block_hessian.h) against dense assembly, and projected
+// Newton (newton.h): one step on a quadratic, convergence on a non-quadratic convex energy
+// of a mesh, fixed vertices held, an indefinite rounding shift.
+#include "shapemap/error.h"
+#include "shapemap/optim/block_hessian.h"
+#include "shapemap/optim/newton.h"
+#include <Eigen/Dense>
+#include <gtest/gtest.h>
+#include <random>
+
+using namespace shapemap;
+
+namespace {
+// Two tets sharing a face, and a triangle sharing nothing: 6 vertices (5 is isolated).
+Eigen::MatrixXi two_tets() {
+  Eigen::MatrixXi T(2, 4);
+  T << 0, 1, 2, 3, 1, 2, 3, 4;
+  return T;
+}
+Eigen::MatrixXd random_spd(int n, std::mt19937& rng) {
+  std::normal_distribution<double> g(0, 1);
+  Eigen::MatrixXd R(n, n);
+  for (int i = 0; i < R.size(); ++i) R(i) = g(rng);
+  return R * R.transpose() + Eigen::MatrixXd::Identity(n, n);
+}
+}  // namespace
+
+TEST(BlockHessian, MatchesDenseAssemblyWithFixedVertices) {
+  const Eigen::MatrixXi T = two_tets();
+  std::mt19937 rng(2);
+  const std::vector<int> free = {4, 0, 2, 5, 3};  // vertex 1 fixed, any order
+  BlockHessian H(T, 6, free);
+  EXPECT_EQ(H.num_free(), 5);
+  EXPECT_EQ(H.free_index(1), -1);
+  EXPECT_EQ(H.free_index(2), 2);
+  Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(18, 18);  // by vertex
+  for (int e = 0; e < 2; ++e) {
+    const Eigen::MatrixXd He = random_spd(12, rng);
+    H.add_element(e, He);
+    for (int a = 0; a < 4; ++a)
+      for (int b = 0; b < 4; ++b) dense.block<3, 3>(3 * T(e, a), 3 * T(e, b)) += He.block<3, 3>(3 * a, 3 * b);
+  }
+  Eigen::Matrix3d B = random_spd(3, rng);
+  B(0, 1) += 0.5;  // not symmetric: (a, b) gets B, (b, a) gets B^T
+  H.add_block(0, 3, B);
+  dense.block<3, 3>(0, 9) += B;
+  dense.block<3, 3>(9, 0) += B.transpose();
+  const Eigen::Matrix3d S = random_spd(3, rng);
+  H.add_block(2, 2, S);
+  dense.block<3, 3>(6, 6) += S;
+  H.add_diagonal(5, 2.0);
+  dense.block<3, 3>(15, 15) += 2.0 * Eigen::Matrix3d::Identity();
+  H.add_block(1, 1, S);  // fixed: dropped
+  EXPECT_THROW(H.add_block(0, 4, B), Error);  // share no element
+  // The free-vertex submatrix in free order.
+  Eigen::MatrixXd want(15, 15);
+  for (int p = 0; p < 5; ++p)
+    for (int q = 0; q < 5; ++q) want.block<3, 3>(3 * p, 3 * q) = dense.block<3, 3>(3 * free[p], 3 * free[q]);
+  const Eigen::MatrixXd got = Eigen::MatrixXd(Eigen::SparseMatrix<double>(H.matrix().selfadjointView<Eigen::Lower>()));
+  EXPECT_LT((got - want).cwiseAbs().maxCoeff(), 1e-12);
+  // Only the lower triangle is stored.
+  for (int j = 0; j < H.matrix().outerSize(); ++j)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(H.matrix(), j); it; ++it) EXPECT_GE(it.row(), it.col());
+  Eigen::VectorXd x = Eigen::VectorXd::LinSpaced(15, -1, 2);
+  EXPECT_LT((H.multiply(x) - want * x).cwiseAbs().maxCoeff(), 1e-11);
+  H.set_zero();
+  EXPECT_EQ(Eigen::MatrixXd(H.matrix()).cwiseAbs().maxCoeff(), 0.0);
+}
+
+namespace {
+// A mass-spring-like convex energy on a tet mesh's edges plus a quartic pull: E(x) =
+// sum_edges |x_a - x_b - r_ab|^2 + sum_v |x_v - p_v|^4, with its exact Hessian (convex).
+struct Springs {
+  Eigen::MatrixXi T;
+  std::vector<std::pair<int, int>> edges;
+  Eigen::MatrixXd R, P;  // per edge rest vector; per vertex pull target
+  int n;
+  double value(const Eigen::MatrixXd& X, Eigen::MatrixXd* G) const {
+    double E = 0;
+    if (G) G->setZero(n, 3);
+    for (size_t k = 0; k < edges.size(); ++k) {
+      const auto [a, b] = edges[k];
+      const Eigen::RowVector3d d = X.row(a) - X.row(b) - R.row(k);
+      E += d.squaredNorm();
+      if (G) {
+        G->row(a) += 2 * d;
+        G->row(b) -= 2 * d;
+      }
+    }
+    for (int v = 0; v < n; ++v) {
+      const Eigen::RowVector3d d = X.row(v) - P.row(v);
+      E += d.squaredNorm() * d.squaredNorm();
+      if (G) G->row(v) += 4 * d.squaredNorm() * d;
+    }
+    return E;
+  }
+  void hessian(const Eigen::MatrixXd& X, BlockHessian& H) const {
+    for (const auto& [a, b] : edges) {
+      H.add_block(a, a, 2 * Eigen::Matrix3d::Identity());
+      H.add_block(b, b, 2 * Eigen::Matrix3d::Identity());
+      H.add_block(a, b, -2 * Eigen::Matrix3d::Identity());
+    }
+    for (int v = 0; v < n; ++v) {
+      const Eigen::Vector3d d = (X.row(v) - P.row(v)).transpose();
+      H.add_block(v, v, 4 * d.squaredNorm() * Eigen::Matrix3d::Identity() + 8 * d * d.transpose());
+    }
+  }
+};
+Springs make_springs(unsigned seed) {
+  Springs s;
+  s.T = two_tets();
+  s.n = 5;
+  for (int e = 0; e < 2; ++e)
+    for (int a = 0; a < 4; ++a)
+      for (int b = a + 1; b < 4; ++b) s.edges.emplace_back(s.T(e, a), s.T(e, b));
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> g(0, 1);
+  s.R.resize(s.edges.size(), 3);
+  s.P.resize(5, 3);
+  for (int i = 0; i < s.R.size(); ++i) s.R(i) = g(rng);
+  for (int i = 0; i < s.P.size(); ++i) s.P(i) = g(rng);
+  return s;
+}
+}  // namespace
+
+TEST(ProjectedNewton, ConvergesQuadraticallyAndHoldsFixedVertices) {
+  const Springs s = make_springs(3);
+  Eigen::MatrixXd X = Eigen::MatrixXd::Zero(5, 3);
+  X.row(2) << 5, 5, 5;  // fixed
+  const std::vector<int> free = {0, 1, 3, 4};
+  ProjectedNewton pn(BlockHessian(s.T, 5, free));
+  Eigen::MatrixXd Xf = X, G;
+  auto scatter = [&](const Eigen::VectorXd& z) {
+    for (int q = 0; q < 4; ++q) Xf.row(free[q]) = z.segment<3>(3 * q).transpose();
+  };
+  NewtonValue f = [&](const Eigen::VectorXd& z, Eigen::VectorXd* g) {
+    scatter(z);
+    const double v = s.value(Xf, g ? &G : nullptr);
+    if (g)
+      for (int q = 0; q < 4; ++q) g->segment<3>(3 * q) = G.row(free[q]).transpose();
+    return v;
+  };
+  NewtonHessian h = [&](const Eigen::VectorXd& z, BlockHessian& H) {
+    scatter(z);
+    s.hessian(Xf, H);
+  };
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(12);
+  NewtonOptions o;
+  o.max_iterations = 50;
+  o.grad_tol = 1e-10;
+  o.f_rel_tol = 0;
+  NewtonResult r = pn.minimize(f, h, x, o);
+  EXPECT_EQ(r.stop, "gradient");
+  EXPECT_LT(r.iterations, 25);
+  EXPECT_LT(r.grad_norm, 1e-10);
+  scatter(x);
+  EXPECT_EQ(Xf.row(2), Eigen::RowVector3d(5, 5, 5));
+  // The gradient of the free rows vanishes; the fixed row's does not.
+  s.value(Xf, &G);
+  EXPECT_GT(G.row(2).norm(), 1e-3);
+  // A quadratic (no quartic pull) is solved in one Newton step.
+  Springs q = s;
+  q.P.setZero();
+  auto fq = [&](const Eigen::VectorXd& z, Eigen::VectorXd* g) {
+    scatter(z);
+    double v = 0;
+    Eigen::MatrixXd Gq = Eigen::MatrixXd::Zero(5, 3);
+    for (size_t k = 0; k < q.edges.size(); ++k) {
+      const auto [a, b] = q.edges[k];
+      const Eigen::RowVector3d d = Xf.row(a) - Xf.row(b) - q.R.row(k);
+      v += d.squaredNorm();
+      Gq.row(a) += 2 * d;
+      Gq.row(b) -= 2 * d;
+    }
+    if (g)
+      for (int p = 0; p < 4; ++p) g->segment<3>(3 * p) = Gq.row(free[p]).transpose();
+    return v;
+  };
+  NewtonHessian hq = [&](const Eigen::VectorXd& z, BlockHessian& H) {
+    scatter(z);
+    for (const auto& [a, b] : q.edges) {
+      H.add_block(a, a, 2 * Eigen::Matrix3d::Identity());
+      H.add_block(b, b, 2 * Eigen::Matrix3d::Identity());
+      H.add_block(a, b, -2 * Eigen::Matrix3d::Identity());
+    }
+  };
+  ProjectedNewton pq(BlockHessian(s.T, 5, free));
+  x.setZero();
+  o.max_iterations = 1;
+  NewtonResult rq = pq.minimize(fq, hq, x, o);
+  Eigen::VectorXd gq(12);
+  fq(x, &gq);
+  EXPECT_EQ(rq.iterations, 1);
+  EXPECT_LT(gq.norm(), 1e-9);
+}
+
+// A Hessian that is singular (a free vertex nobody constrains) gets a diagonal shift and
+// still gives a descent step.
+TEST(ProjectedNewton, ShiftsASingularHessian) {
+  const Eigen::MatrixXi T = two_tets();
+  ProjectedNewton pn(BlockHessian(T, 5, {0, 1, 2, 3, 4}));
+  // f = |x_0 - 1|^2 only: vertices 1..4 have zero Hessian rows.
+  NewtonValue f = [](const Eigen::VectorXd& z, Eigen::VectorXd* g) {
+    if (g) {
+      g->setZero();
+      g->head<3>() = 2 * (z.head<3>().array() - 1).matrix();
+    }
+    return (z.head<3>().array() - 1).matrix().squaredNorm();
+  };
+  NewtonHessian h = [](const Eigen::VectorXd&, BlockHessian& H) { H.add_block(0, 0, 2 * Eigen::Matrix3d::Identity()); };
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(15);
+  NewtonResult r = pn.minimize(f, h, x, {});
+  EXPECT_LT(r.f, 1e-12);
+  EXPECT_GE(r.factorizations, 1);
+  EXPECT_EQ(x.tail<12>().cwiseAbs().maxCoeff(), 0.0);
+}
