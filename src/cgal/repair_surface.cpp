@@ -14,6 +14,7 @@
 #include <CGAL/Polygon_mesh_processing/polygon_soup_to_polygon_mesh.h>
 #include <CGAL/Polygon_mesh_processing/repair_degeneracies.h>
 #include <CGAL/Polygon_mesh_processing/shape_predicates.h>
+#include <CGAL/Polygon_mesh_processing/stitch_borders.h>
 #include <CGAL/Polygon_mesh_processing/triangulate_hole.h>
 #include <CGAL/Surface_mesh.h>
 
@@ -148,8 +149,12 @@ SurfaceRepair repair_surface(const TriMesh& in, const std::string& name, const S
   for (int i = 0; i < n; ++i) unreferenced += point_of[size_t(rep[size_t(i)])] < 0;
 
   // 3. Non-manifold edges and vertices split: orient_polygon_soup duplicates the points
-  // whose neighbourhood is not a disk, one copy per extra sheet (appended, so the first
-  // copy keeps the point's index).
+  // whose neighbourhood is not a disk (appended, so the first copy keeps the point's index)
+  // and cuts the faces around a non-manifold edge apart; the slit this leaves in each sheet
+  // (a boundary cycle running along the edge and back) is zipped by stitching within each
+  // boundary cycle only, so the sheets stay apart.
+  int nm_edges = 0, nm_vertices = 0;
+  const size_t soup_points = points.size();
   {
     TriMesh soup;
     soup.V.resize(Eigen::Index(points.size()), 3);
@@ -159,16 +164,11 @@ SurfaceRepair repair_surface(const TriMesh& in, const std::string& name, const S
     for (size_t f = 0; f < polygons.size(); ++f)
       for (int j = 0; j < 3; ++j) soup.F(Eigen::Index(f), j) = int(polygons[f][size_t(j)]);
     const MeshReport r = check_surface(soup);
-    const size_t before = points.size();
+    nm_edges = r.non_manifold_edges;
+    nm_vertices = r.non_manifold_vertices;
     CopyVisitor visitor;
     visitor.from = &soup_from;
     PMP::orient_polygon_soup(points, polygons, CGAL::parameters::visitor(visitor));
-    const size_t copies = points.size() - before;
-    if (r.non_manifold_edges || r.non_manifold_vertices || copies) {
-      notes.push_back(note + count(r.non_manifold_edges, "non-manifold edge", "non-manifold edges") + " and " +
-                      count(r.non_manifold_vertices, "non-manifold vertex", "non-manifold vertices") + " split (" +
-                      count(long(copies), "vertex", "vertices") + " duplicated; copies map like their original)");
-    }
   }
   if (!PMP::is_polygon_soup_a_polygon_mesh(polygons))
     throw InputError(name + ": could not be made a manifold surface (CGAL orient_polygon_soup)");
@@ -178,6 +178,17 @@ SurfaceRepair repair_surface(const TriMesh& in, const std::string& name, const S
   auto ffrom = mesh.add_property_map<FI, int>("f:shapemap_from", -1).first;
   for (size_t p = 0; p < points.size(); ++p) vfrom[VI(Mesh::size_type(p))] = soup_from[p];
   for (size_t f = 0; f < polygons.size(); ++f) ffrom[FI(Mesh::size_type(f))] = face_from[f];
+  if (points.size() > soup_points) {
+    PMP::stitch_boundary_cycles(mesh);
+    mesh.collect_garbage();
+    vfrom = mesh.property_map<VI, int>("v:shapemap_from").first;
+    ffrom = mesh.property_map<FI, int>("f:shapemap_from").first;
+  }
+  const long copies = long(mesh.number_of_vertices()) - long(soup_points);
+  if (nm_edges || nm_vertices || copies > 0)
+    notes.push_back(note + count(nm_edges, "non-manifold edge", "non-manifold edges") + " and " +
+                    count(nm_vertices, "non-manifold vertex", "non-manifold vertices") + " split (" +
+                    count(std::max(copies, 0L), "vertex", "vertices") + " duplicated; copies map like their original)");
 
   // 4. Zero-area faces removed (CGAL's exact test; edges collapsed or flipped). On a copy:
   // if CGAL gives up, the surface is kept as it was and the guards note the faces.

@@ -83,6 +83,53 @@ TriMesh messy(const TriMesh& s) {
   return m;
 }
 
+// Seven cubes of side 1 (k^3 Kuhn-subdivided cells each, 6 tets per cell) in a C around an
+// empty cube, whose ends touch along the vertical edge at x = 2, y = 1: the boundary has k
+// non-manifold edges there.
+TetMesh c_shape(int k) {
+  const int N = 3 * k + 1, L = k + 1;  // N x N x L grid points
+  auto id = [&](int x, int y, int z) { return x + N * (y + N * z); };
+  TetMesh M;
+  M.V.resize(N * N * L, 3);
+  for (int z = 0; z < L; ++z)
+    for (int y = 0; y < N; ++y)
+      for (int x = 0; x < N; ++x) M.V.row(id(x, y, z)) << double(x) / k, double(y) / k, double(z) / k;
+  const std::vector<std::array<int, 2>> cells = {{0, 0}, {1, 0}, {0, 1}, {0, 2}, {1, 2}, {2, 2}, {2, 1}};
+  std::vector<std::array<int, 4>> tets;
+  const int perms[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+  for (int X = 0; X < 3 * k; ++X)
+    for (int Y = 0; Y < 3 * k; ++Y) {
+      if (std::find(cells.begin(), cells.end(), std::array<int, 2>{X / k, Y / k}) == cells.end()) continue;
+      for (int Z = 0; Z < k; ++Z)
+        for (const auto& p : perms) {  // Kuhn subdivision: paths from corner 000 to 111
+          int xyz[3] = {X, Y, Z};
+          std::array<int, 4> tet;
+          tet[0] = id(xyz[0], xyz[1], xyz[2]);
+          for (int step = 0; step < 3; ++step) {
+            ++xyz[p[step]];
+            tet[step + 1] = id(xyz[0], xyz[1], xyz[2]);
+          }
+          const Eigen::RowVector3d a = M.V.row(tet[0]), e1 = M.V.row(tet[1]) - a, e2 = M.V.row(tet[2]) - a,
+                                   e3 = M.V.row(tet[3]) - a;
+          if (e1.dot(e2.cross(e3)) < 0) std::swap(tet[2], tet[3]);
+          tets.push_back(tet);
+        }
+    }
+  // Grid points used by no cell (around the corner x = 3, y = 0) removed.
+  std::vector<int> number(M.V.rows(), -1);
+  for (const auto& tet : tets)
+    for (int v : tet) number[size_t(v)] = 0;
+  Eigen::MatrixXd V(M.V.rows(), 3);
+  int used = 0;
+  for (int v = 0; v < M.V.rows(); ++v)
+    if (number[size_t(v)] == 0) V.row(used) = M.V.row(v), number[size_t(v)] = used++;
+  M.V = V.topRows(used);
+  M.T.resize(Eigen::Index(tets.size()), 4);
+  for (size_t i = 0; i < tets.size(); ++i)
+    for (int j = 0; j < 4; ++j) M.T(Eigen::Index(i), j) = number[size_t(tets[i][size_t(j)])];
+  return M;
+}
+
 }  // namespace
 
 TEST(RepairCli, SurfaceMapRepairsAndKeepsTheUsersNumbering) {
@@ -141,46 +188,8 @@ TEST(RepairCli, SurfaceMapRepairsAndKeepsTheUsersNumbering) {
 }
 
 TEST(RepairCli, BallSplitsTetsTouchingAlongAnEdge) {
-  // Seven unit cubes (6 tets each) in a C around an empty cell, whose ends touch along the
-  // vertical edge at x = 2, y = 1: the boundary has a non-manifold edge there.
   TempDir t("repair_ball_cli");
-  const int N = 4;  // 4 x 4 x 2 grid points
-  auto id = [&](int x, int y, int z) { return x + N * (y + N * z); };
-  TetMesh M;
-  M.V.resize(N * N * 2, 3);
-  for (int z = 0; z < 2; ++z)
-    for (int y = 0; y < N; ++y)
-      for (int x = 0; x < N; ++x) M.V.row(id(x, y, z)) << x, y, z;
-  const std::vector<std::array<int, 2>> cells = {{0, 0}, {1, 0}, {0, 1}, {0, 2}, {1, 2}, {2, 2}, {2, 1}};
-  std::vector<std::array<int, 4>> tets;
-  const int perms[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
-  for (const auto& c : cells)
-    for (const auto& p : perms) {  // Kuhn subdivision: paths from corner 000 to 111
-      int xyz[3] = {c[0], c[1], 0};
-      std::array<int, 4> tet;
-      tet[0] = id(xyz[0], xyz[1], xyz[2]);
-      for (int k = 0; k < 3; ++k) {
-        ++xyz[p[k]];
-        tet[k + 1] = id(xyz[0], xyz[1], xyz[2]);
-      }
-      const Eigen::RowVector3d a = M.V.row(tet[0]), e1 = M.V.row(tet[1]) - a, e2 = M.V.row(tet[2]) - a,
-                               e3 = M.V.row(tet[3]) - a;
-      const double det = e1.dot(e2.cross(e3));
-      if (det < 0) std::swap(tet[2], tet[3]);
-      tets.push_back(tet);
-    }
-  // Grid points used by no cell (the corner x = 3, y = 0) removed.
-  std::vector<int> number(M.V.rows(), -1);
-  for (const auto& tet : tets)
-    for (int v : tet) number[size_t(v)] = 0;
-  Eigen::MatrixXd V(M.V.rows(), 3);
-  int used = 0;
-  for (int v = 0; v < M.V.rows(); ++v)
-    if (number[size_t(v)] == 0) V.row(used) = M.V.row(v), number[size_t(v)] = used++;
-  M.V = V.topRows(used);
-  M.T.resize(Eigen::Index(tets.size()), 4);
-  for (size_t k = 0; k < tets.size(); ++k)
-    for (int j = 0; j < 4; ++j) M.T(Eigen::Index(k), j) = number[size_t(tets[k][size_t(j)])];
+  const TetMesh M = c_shape(1);
   write_volume(t.p("c.vtk"), M);
   const std::string err = t.p("err.txt");
   // --strict: the defect named.
@@ -198,4 +207,27 @@ TEST(RepairCli, BallSplitsTetsTouchingAlongAnEdge) {
   std::ifstream rj(t.p("b/report.json"));
   const nlohmann::json r = nlohmann::json::parse(rj);
   EXPECT_EQ(r["inputs"]["repairs"].size(), 1u);
+}
+
+TEST(RepairCli, VolumeMapAutoRepairsTheBoundary) {
+  // The C's boundary (non-manifold along the touching edge) is repaired for the automatic
+  // surface map; the volume map keeps the tet mesh as given. A self-map comes out the identity.
+  TempDir t("repair_vm_cli");
+  const TetMesh M = c_shape(4);
+  write_volume(t.p("c.vtk"), M);
+  const std::string err = t.p("err.txt");
+  EXPECT_EQ(shapemap::testing::run_stderr("--strict volume-map " + t.p("c.vtk") + " " + t.p("c.vtk") + " -o " +
+                                              t.p("strict"),
+                                          err),
+            2);
+  EXPECT_NE(slurp(err).find(t.p("c.vtk") + " (boundary): 4 non-manifold edges"), std::string::npos) << slurp(err);
+  ASSERT_EQ(run_with_notes("volume-map " + t.p("c.vtk") + " " + t.p("c.vtk") + " -o " + t.p("v"), err), 0) << slurp(err);
+  EXPECT_NE(slurp(err).find(t.p("c.vtk") + " (boundary): note: 4 non-manifold edges"), std::string::npos) << slurp(err);
+  const BarycentricMap ab = read_map(t.p("v/map_AB.txt"));
+  ASSERT_EQ(ab.size(), M.num_vertices());
+  const Eigen::MatrixXd X = map_positions(ab, M.V, M.T);
+  EXPECT_LT((X - M.V).rowwise().norm().maxCoeff(), 1e-3);
+  std::ifstream rj(t.p("v/report.json"));
+  const nlohmann::json r = nlohmann::json::parse(rj);
+  EXPECT_EQ(r["inputs"]["repairs"].size(), 2u);  // A's boundary and B's
 }
