@@ -8,6 +8,7 @@
 #include "shapemap/error.h"
 #include "shapemap/eval/ball_metrics.h"
 #include "shapemap/io.h"
+#include "shapemap/repair.h"
 #include "shapemap/volume/ball_param.h"
 #include "shapemap/volume/tetrahedralize.h"
 #include <algorithm>
@@ -26,17 +27,36 @@ struct BallInput {
   bool tetrahedralized = false;
   int chords_split = 0;
   int chords_left = 0;
-  bool changed() const { return tetrahedralized || chords_split > 0; }  // write it to OUT
+  int pinches_split = 0;  // vertex copies made by split_pinched_tet_vertices
+  std::vector<std::string> repairs;  // notes of the input repairs (report.json: inputs.repairs)
+  bool changed() const { return tetrahedralized || chords_split > 0 || pinches_split > 0; }  // write it to OUT
 };
 
 inline BallInput load_ball_input(const std::string& path, int tets, bool split_chords,
-                                 const ProgressCallback& progress, bool quiet) {
+                                 const ProgressCallback& progress, const GlobalOptions& g) {
+  const bool quiet = g.quiet;
   BallInput in;
   if (is_volume_path(path)) {
     in.mesh = read_volume(path);
+    // Parts touching along an edge or at a vertex: the boundary is not a manifold, so not a
+    // sphere. Splitting those vertices (copies appended: rows 0..n-1 stay the user's) repairs it.
+    const MeshReport r = check_volume(in.mesh);
+    if (r.indices_in_range && (r.non_manifold_edges > 0 || r.non_manifold_vertices > 0)) {
+      auto count = [](int k, const char* one, const char* many) { return std::to_string(k) + (k == 1 ? one : many); };
+      const std::string what = "boundary surface has " +
+                               count(r.non_manifold_edges, " non-manifold edge", " non-manifold edges") + " and " +
+                               count(r.non_manifold_vertices, " non-manifold vertex", " non-manifold vertices") +
+                               " (tets touching along an edge or at a vertex)";
+      if (g.strict) throw InputError(path + ": " + what + " (--strict: not repaired)");
+      in.pinches_split = split_pinched_tet_vertices(in.mesh);
+      if (in.pinches_split > 0) {
+        in.repairs.push_back(path + ": note: " + what + ": " + std::to_string(in.pinches_split) +
+                             " vertices split (copies appended after the given vertices, which keep their numbers)");
+        info(g, in.repairs.back());
+      }
+    }
   } else if (is_surface_path(path)) {
-    TriMesh s = read_surface(path);
-    require_genus0_surface(s, path);
+    const TriMesh s = repaired_genus0_surface(read_surface(path), path, g, &in.repairs);
     TetrahedralizeOptions o;
     o.target_tets = tets;
     in.mesh = tetrahedralize_input(s, o, progress, path, quiet);

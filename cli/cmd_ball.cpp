@@ -31,7 +31,7 @@ Command register_ball(CLI::App& app, GlobalOptions& g) {
     auto progress = make_progress(g);
     OutputDir out(a->out);
     timer.start("read");
-    const BallInput in = load_ball_input(a->A, a->tets, a->split_chords, progress, g.quiet);
+    const BallInput in = load_ball_input(a->A, a->tets, a->split_chords, progress, g);
     const TetMesh& mesh = in.mesh;
     timer.start("ball");
     const BallParamResult r = ball_parameterization(mesh, a->opt, progress, a->A);
@@ -47,6 +47,7 @@ Command register_ball(CLI::App& app, GlobalOptions& g) {
     timer.stop();
     nlohmann::json j = report_header(g, "ball");
     j["inputs"] = {{"A", a->A}, {"A_vertices", mesh.num_vertices()}, {"A_tets", mesh.num_tets()}};
+    j["inputs"]["repairs"] = in.repairs;
     j["tetrahedralized"] = in.tetrahedralized;
     j["boundary_chords"] = {{"split", in.chords_split}, {"left", in.chords_left}};
     j["parameters"] = ball_parameters_json(a->opt);

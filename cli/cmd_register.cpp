@@ -64,8 +64,8 @@ Command register_register(CLI::App& app, GlobalOptions& g) {
     auto progress = make_progress(g);
     OutputDir out(a->out);
     timer.start("read");
-    const BallInput inA = load_ball_input(a->A, a->tets, a->split_chords, progress, g.quiet);
-    const BallInput inB = load_ball_input(a->B, a->tets, a->split_chords, progress, g.quiet);
+    const BallInput inA = load_ball_input(a->A, a->tets, a->split_chords, progress, g);
+    const BallInput inB = load_ball_input(a->B, a->tets, a->split_chords, progress, g);
     const TetMesh &A = inA.mesh, &B = inB.mesh;
     timer.start("register");
     a->opt.center = !a->no_center;
@@ -93,6 +93,8 @@ Command register_register(CLI::App& app, GlobalOptions& g) {
     nlohmann::json j = report_header(g, "register");
     j["inputs"] = {{"A", a->A}, {"A_vertices", A.num_vertices()}, {"A_tets", A.num_tets()},
                    {"B", a->B}, {"B_vertices", B.num_vertices()}, {"B_tets", B.num_tets()}};
+    j["inputs"]["repairs"] = inA.repairs;
+    for (const std::string& n : inB.repairs) j["inputs"]["repairs"].push_back(n);
     j["parameters"] = ball_parameters_json(a->opt.ball);
     j["parameters"]["via"] = a->via;
     j["parameters"]["frames"] = a->frames;

@@ -103,27 +103,37 @@ int run_bim(const SurfaceMapArgs& a, const ElasticCliOptions& eo, const GlobalOp
   Inputs in = read_inputs(a);
   OutputDir out(a.out);
   BIMOptions o = bim_options(a, g, in);
-  // The library's input guard, before the progress line: bad input gives one line.
-  check_surface_map_input(in.A, a.A, o.min_vertices, g);
-  check_surface_map_input(in.B, a.B, o.min_vertices, g);
+  // Safe repairs (or --strict's refusal), then the library's input guard, before the
+  // progress line: bad input gives one line. BIM runs on the repaired surfaces; the outputs
+  // are carried back to the user's numbering.
+  const SurfaceRepair rA = repair_input_surface(in.A, a.A, g), rB = repair_input_surface(in.B, a.B, g);
+  check_surface_map_input(rA.mesh, a.A, o.min_vertices, g);
+  check_surface_map_input(rB.mesh, a.B, o.min_vertices, g);
+  for (int& v : o.landmarks_A) v = repaired_vertex(rA, v);
+  for (int& v : o.landmarks_B) v = repaired_vertex(rB, v);
   BarycentricMap truth;
   const bool has_truth = !eo.truth_ab.empty();
-  if (has_truth) truth = read_checked_map(eo.truth_ab, in.A.num_vertices(), in.B.num_faces());
+  if (has_truth)
+    truth = map_to_repaired(read_checked_map(eo.truth_ab, in.A.num_vertices(), in.B.num_faces()), rA, rB, in.B);
   timer.start("bim");
   info(g, "surface-map: Blended Intrinsic Maps " + a.A + " -> " + a.B);
-  BIMResult r = blended_intrinsic_maps(in.A, in.B, o, make_progress(g));
+  BIMResult r = blended_intrinsic_maps(rA.mesh, rB.mesh, o, make_progress(g));
   timer.start("write");
-  write_map(out.path("map_AB.txt"), r.AB.map);
-  write_mapped_surface(out.path("A_on_B.obj"), in.A, r.AB.positions);
+  const bool repaired = rA.changed() || rB.changed();
+  const BarycentricMap mAB = map_to_inputs(r.AB.map, rA, rB, in.B);
+  write_map(out.path("map_AB.txt"), mAB);
+  write_mapped_surface(out.path("A_on_B.obj"), in.A, repaired ? map_positions(mAB, in.B.V, in.B.F) : r.AB.positions);
   if (a.symmetric) {
-    write_map(out.path("map_BA.txt"), r.BA.map);
-    write_mapped_surface(out.path("B_on_A.obj"), in.B, r.BA.positions);
+    const BarycentricMap mBA = map_to_inputs(r.BA.map, rB, rA, in.A);
+    write_map(out.path("map_BA.txt"), mBA);
+    write_mapped_surface(out.path("B_on_A.obj"), in.B, repaired ? map_positions(mBA, in.A.V, in.A.F) : r.BA.positions);
   }
   timer.stop();
   nlohmann::json j = report_header(g, "surface-map");
   j["method"] = "bim";
   j["inputs"] = {{"A", a.A}, {"B", a.B}, {"A_vertices", in.A.num_vertices()}, {"A_faces", in.A.num_faces()},
                  {"B_vertices", in.B.num_vertices()}, {"B_faces", in.B.num_faces()}};
+  j["inputs"]["repairs"] = repairs_json(rA, rB);
   if (!a.landmarks.empty()) j["inputs"]["landmarks"] = a.landmarks;
   if (has_truth) j["inputs"]["truth"] = eo.truth_ab;
   j["parameters"] = {{"max_features", o.max_features},     {"num_even", o.num_even},
@@ -142,13 +152,14 @@ int run_bim(const SurfaceMapArgs& a, const ElasticCliOptions& eo, const GlobalOp
   bim["stages"] = stages;
   bim["total_seconds"] = r.total_seconds;
   j["bim"] = bim;
-  // The same map metrics as the elastic method (and its geodesic error with --truth).
+  // The same map metrics as the elastic method (and its geodesic error with --truth), of
+  // the surfaces BIM ran on.
   timer.start("metrics");
-  j["metrics"]["AB"] = surface_map_metrics_json(in.A, in.B, r.AB.map, a.symmetric ? &r.BA.map : nullptr,
+  j["metrics"]["AB"] = surface_map_metrics_json(rA.mesh, rB.mesh, r.AB.map, a.symmetric ? &r.BA.map : nullptr,
                                                 has_truth ? &truth : nullptr);
-  if (a.symmetric) j["metrics"]["BA"] = surface_map_metrics_json(in.B, in.A, r.BA.map, &r.AB.map, nullptr);
+  if (a.symmetric) j["metrics"]["BA"] = surface_map_metrics_json(rB.mesh, rA.mesh, r.BA.map, &r.AB.map, nullptr);
   timer.start("pictures");
-  const auto figures = surface_map_figures(in.A, in.B, r.AB.map, a.symmetric ? &r.BA.map : nullptr);
+  const auto figures = surface_map_figures(rA.mesh, rB.mesh, r.AB.map, a.symmetric ? &r.BA.map : nullptr);
   timer.stop();
   j["timings"] = timer.json();
   write_reports(out, j, "shapemap surface-map --method bim", figures);

@@ -30,7 +30,8 @@ int run_tetrahedralize(const TetArgs& a, const GlobalOptions& g) {
   if (!is_volume_path(a.output))
     throw InputError(a.output + ": output must be a volume file (.vtk .mesh .msh .node .ele)");
   if (a.edge_length > 0 && a.tets > 0) throw InputError("tetrahedralize: give --edge-length or --tets, not both");
-  TriMesh surface = read_surface(a.input);
+  // The safe repairs (notes on stderr; --strict refuses); tetrahedralize() checks the rest.
+  const TriMesh surface = repair_input_surface(read_surface(a.input), a.input, g).mesh;
   TetrahedralizeOptions opt;
   opt.edge_length = a.edge_length;
   opt.target_tets = a.tets;

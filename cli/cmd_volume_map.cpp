@@ -36,7 +36,9 @@ namespace {
 struct VolumeInput {
   TetMesh mesh;
   bool from_surface = false;
-  TriMesh surface;  // the input surface when from_surface
+  TriMesh surface;  // the input surface when from_surface, repaired (what was tetrahedralized)
+  TriMesh given;    // the input surface as given (landmark indices and map files refer to it)
+  std::vector<std::string> repairs;  // notes of the input repairs (report.json: inputs.repairs)
 };
 
 VolumeInput load_volume_input(const std::string& path, const std::string& name, int tets,
@@ -45,8 +47,8 @@ VolumeInput load_volume_input(const std::string& path, const std::string& name, 
   if (is_volume_path(path)) {
     in.mesh = read_volume(path);
   } else if (is_surface_path(path)) {
-    in.surface = read_surface(path);
-    require_genus0_surface(in.surface, path);
+    in.given = read_surface(path);
+    in.surface = repaired_genus0_surface(in.given, path, g, &in.repairs);
     TetrahedralizeOptions to;
     to.target_tets = tets;
     to.seed = unsigned(g.seed);
@@ -75,10 +77,10 @@ std::vector<int> volume_landmarks(const std::string& file, const VolumeInput& in
                                   const std::string& input_path) {
   const std::vector<int> cand(bd.to_volume.data(), bd.to_volume.data() + bd.to_volume.size());
   if (!in.from_surface) return read_landmarks(file, in.mesh.V, cand);
-  const std::vector<int> on_surface = read_landmarks(file, in.surface.V);
+  const std::vector<int> on_surface = read_landmarks(file, in.given.V);
   std::vector<int> out;
   for (size_t k = 0; k < on_surface.size(); ++k) {
-    const Eigen::RowVector3d x = in.surface.V.row(on_surface[k]);
+    const Eigen::RowVector3d x = in.given.V.row(on_surface[k]);
     int best = cand.front();
     for (int v : cand)
       if ((in.mesh.V.row(v) - x).squaredNorm() < (in.mesh.V.row(best) - x).squaredNorm()) best = v;
@@ -257,6 +259,7 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
       auto pick = [](const VolumeInput& in, const TetBoundary& bd, int n, const std::string& file) {
         if (n == bd.surface.num_vertices()) return bd.surface;
         if (in.from_surface && n == in.surface.num_vertices()) return in.surface;
+        if (in.from_surface && n == in.given.num_vertices()) return in.given;  // e.g. surface-map's output
         throw InputError(file + ": " + std::to_string(n) + " rows, but the boundary surface has " +
                          std::to_string(bd.surface.num_vertices()) + " vertices");
       };
@@ -280,8 +283,10 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
       } else {
         SA = inA.from_surface ? inA.surface : bA.surface;
         SB = inB.from_surface ? inB.surface : bB.surface;
-        if (!inA.from_surface) require_genus0_surface(SA, a->A + " (boundary)");
-        if (!inB.from_surface) require_genus0_surface(SB, a->B + " (boundary)");
+        // Boundaries of tet meshes get the surface repairs too (tets touching along an edge make
+        // a non-manifold boundary); A's boundary vertices are located on SA by closest point.
+        if (!inA.from_surface) SA = repaired_genus0_surface(SA, a->A + " (boundary)", g, &inA.repairs);
+        if (!inB.from_surface) SB = repaired_genus0_surface(SB, a->B + " (boundary)", g, &inB.repairs);
         std::string used;
         std::tie(sAB, sBA) =
             surface_map_for_volumes(SA, SB, progress, &used, a->auto_surface == "elastic");
@@ -338,6 +343,8 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
     j["inputs"] = {{"A", a->A}, {"B", a->B}, {"A_vertices", A.num_vertices()}, {"A_tets", A.num_tets()},
                    {"B_vertices", B.num_vertices()}, {"B_tets", B.num_tets()},
                    {"A_tetrahedralized", inA.from_surface}, {"B_tetrahedralized", inB.from_surface}};
+    j["inputs"]["repairs"] = inA.repairs;
+    for (const std::string& n : inB.repairs) j["inputs"]["repairs"].push_back(n);
     if (!a->landmarks.empty()) j["inputs"]["landmarks"] = a->landmarks;
     const auto& o = a->opt;
     j["parameters"] = {{"init", init_detail}, {"alpha", o.alpha}, {"gamma", o.gamma},

@@ -61,6 +61,22 @@ void check_surface_map_input(const TriMesh& mesh, const std::string& path, int m
                 " lists the problems)");
 }
 
+SurfaceRepair repair_input_surface(const TriMesh& mesh, const std::string& path, const GlobalOptions& g) {
+  SurfaceRepairOptions o;
+  o.strict = g.strict;
+  SurfaceRepair r = repair_surface(mesh, path, o);
+  for (const std::string& n : r.notes) info(g, n);
+  return r;
+}
+
+TriMesh repaired_genus0_surface(const TriMesh& mesh, const std::string& path, const GlobalOptions& g,
+                                std::vector<std::string>* notes) {
+  SurfaceRepair r = repair_input_surface(mesh, path, g);
+  require_genus0_surface(r.mesh, path);
+  if (notes) notes->insert(notes->end(), r.notes.begin(), r.notes.end());
+  return std::move(r.mesh);
+}
+
 TetMesh tetrahedralize_input(const TriMesh& surface, const TetrahedralizeOptions& opt,
                              const ProgressCallback& progress, const std::string& path, bool quiet) {
   TetrahedralizeInfo ti;

@@ -2,6 +2,7 @@
 // output folders, report.json, and error handling.
 #pragma once
 #include "shapemap/progress.h"
+#include "shapemap/repair.h"
 #include "shapemap/volume/tetrahedralize.h"
 #include "shapemap/render/image.h"
 #include <CLI/CLI.hpp>
@@ -60,6 +61,7 @@ struct GlobalOptions {
   bool quiet = false;
   int threads = 0;          // 0 = all cores
   std::uint64_t seed = 1;
+  bool strict = false;      // refuse defective input surfaces instead of repairing them
 };
 
 // Applies --threads to OpenMP.
@@ -76,6 +78,25 @@ void info(const GlobalOptions& g, const std::string& msg);
 // connectivity) with a note, since the map near them is unreliable.
 void check_surface_map_input(const TriMesh& mesh, const std::string& path, int min_vertices,
                              const GlobalOptions& g);
+
+// The safe repairs of a surface the user gave (shapemap/repair.h, docs/methods.md): one note
+// line per change on stderr (unless --quiet); --strict refuses instead (InputError: exit 2,
+// one line naming `path` and the defects). The notes also go into report.json
+// (inputs.repairs).
+SurfaceRepair repair_input_surface(const TriMesh& mesh, const std::string& path, const GlobalOptions& g);
+
+// inputs.repairs of report.json: the notes of both inputs' repairs, in order (empty: none).
+inline nlohmann::json repairs_json(const SurfaceRepair& a, const SurfaceRepair& b) {
+  nlohmann::json j = nlohmann::json::array();
+  for (const auto* r : {&a, &b})
+    for (const std::string& n : r->notes) j.push_back(n);
+  return j;
+}
+
+// repair_input_surface(), then require_genus0_surface() on the result: the surface a method
+// that needs a closed genus-0 surface runs on. Appends the notes to `notes` if given.
+TriMesh repaired_genus0_surface(const TriMesh& mesh, const std::string& path, const GlobalOptions& g,
+                                std::vector<std::string>* notes = nullptr);
 
 // tetrahedralize() of the surface read from `path`; prints a note (unless quiet) when CGAL's
 // crease protection failed and the surface was meshed without it.

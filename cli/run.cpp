@@ -25,6 +25,9 @@ int run(const std::vector<std::string>& args) {
   GlobalOptions g;
   app.add_flag("-q,--quiet", g.quiet, "No progress or messages on stderr");
   app.add_option("--threads", g.threads, "Worker threads (0 = all cores)")->check(in_range(0, 1024));
+  app.add_flag("--strict", g.strict,
+               "Refuse input surfaces with defects (non-manifold, duplicates, degenerate faces, "
+               "floating pieces, small holes) instead of repairing them");
   app.add_option("--seed", g.seed, "Random seed: the same input and seed give the same output");
   app.set_version_flag("--version", "shapemap 0.1.0");
 

@@ -94,12 +94,17 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
                             const GlobalOptions& g) {
   StageTimer timer;
   timer.start("read");
-  TriMesh A = read_surface(args.A), B = read_surface(args.B);
-  check_surface_map_input(A, args.A, args.bim.min_vertices, g);  // the same input guard as BIM
+  // The user's surfaces (inA, inB: maps read and written are in their numbering) and the
+  // repaired ones the method runs on (A, B), with the same input guard as BIM.
+  const TriMesh inA = read_surface(args.A), inB = read_surface(args.B);
+  const SurfaceRepair rA = repair_input_surface(inA, args.A, g), rB = repair_input_surface(inB, args.B, g);
+  const TriMesh& A = rA.mesh;
+  const TriMesh& B = rB.mesh;
+  check_surface_map_input(A, args.A, args.bim.min_vertices, g);
   check_surface_map_input(B, args.B, args.bim.min_vertices, g);
   BarycentricMap truth;
   const bool has_truth = !o.truth_ab.empty();
-  if (has_truth) truth = read_checked_map(o.truth_ab, A.num_vertices(), B.num_faces());
+  if (has_truth) truth = map_to_repaired(read_checked_map(o.truth_ab, inA.num_vertices(), inB.num_faces()), rA, rB, inB);
   OutputDir out(args.out);
 
   // Initial maps.
@@ -110,8 +115,10 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
   bool q_given = true;  // false: initBA made below from initAB by closest point
   if (!args.landmarks.empty()) {
     if (args.landmarks.size() != 2) throw InputError("--landmarks: expected two files LA LB");
-    const std::vector<int> la = read_landmarks(args.landmarks[0], A.V);
-    const std::vector<int> lb = read_landmarks(args.landmarks[1], B.V);
+    std::vector<int> la = read_landmarks(args.landmarks[0], inA.V);
+    std::vector<int> lb = read_landmarks(args.landmarks[1], inB.V);
+    for (int& v : la) v = repaired_vertex(rA, v);
+    for (int& v : lb) v = repaired_vertex(rB, v);
     if (la.size() != lb.size())
       throw InputError(args.landmarks[1] + ": " + std::to_string(lb.size()) +
                        " landmarks, but " + args.landmarks[0] + " has " + std::to_string(la.size()));
@@ -136,9 +143,9 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
     const std::string ab = (fs::path(args.init) / "map_AB.txt").string();
     const std::string ba = (fs::path(args.init) / "map_BA.txt").string();
     if (!fs::exists(ab)) throw InputError(args.init + ": no map_AB.txt in this folder");
-    initAB = read_checked_map(ab, A.num_vertices(), B.num_faces());
+    initAB = map_to_repaired(read_checked_map(ab, inA.num_vertices(), inB.num_faces()), rA, rB, inB);
     if (fs::exists(ba)) {
-      initBA = read_checked_map(ba, B.num_vertices(), A.num_faces());
+      initBA = map_to_repaired(read_checked_map(ba, inB.num_vertices(), inA.num_faces()), rB, rA, inA);
       init_kind = "files " + ab + ", " + ba;
     } else {
       initBA = invert_map(initAB, A, B);
@@ -147,7 +154,7 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
     }
   } else {
     if (!fs::exists(args.init)) throw InputError(args.init + ": no such file (--init bim|FILE)");
-    initAB = read_checked_map(args.init, A.num_vertices(), B.num_faces());
+    initAB = map_to_repaired(read_checked_map(args.init, inA.num_vertices(), inB.num_faces()), rA, rB, inB);
     initBA = invert_map(initAB, A, B);
     q_given = false;
     init_kind = "file " + args.init + " (B->A by closest point on the mapped surface)";
@@ -185,9 +192,10 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
   timer.start("metrics");
   nlohmann::json report = report_header(g, "surface-map");
   report["method"] = "elastic";
-  report["inputs"] = {{"A", args.A}, {"B", args.B}, {"A_vertices", A.num_vertices()},
-                      {"A_faces", A.num_faces()}, {"B_vertices", B.num_vertices()},
-                      {"B_faces", B.num_faces()}};
+  report["inputs"] = {{"A", args.A}, {"B", args.B}, {"A_vertices", inA.num_vertices()},
+                      {"A_faces", inA.num_faces()}, {"B_vertices", inB.num_vertices()},
+                      {"B_faces", inB.num_faces()}};
+  report["inputs"]["repairs"] = repairs_json(rA, rB);
   if (has_truth) report["inputs"]["truth"] = o.truth_ab;
   if (!args.landmarks.empty()) report["inputs"]["landmarks"] = args.landmarks;
   report["init"] = init_kind;
@@ -254,11 +262,14 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
 
   // Outputs.
   timer.start("write");
-  write_map(out.path("map_AB.txt"), r.map_AB);
-  write_surface(out.path("A_on_B.obj"), TriMesh{map_positions(r.map_AB, B.V, B.F), A.F});
+  // In the user's numbering (map_to_inputs is the identity when nothing was repaired).
+  const BarycentricMap mAB = map_to_inputs(r.map_AB, rA, rB, inB);
+  write_map(out.path("map_AB.txt"), mAB);
+  write_surface(out.path("A_on_B.obj"), TriMesh{map_positions(mAB, inB.V, inB.F), inA.F});
   if (bij) {
-    write_map(out.path("map_BA.txt"), r.map_BA);
-    write_surface(out.path("B_on_A.obj"), TriMesh{map_positions(r.map_BA, A.V, A.F), B.F});
+    const BarycentricMap mBA = map_to_inputs(r.map_BA, rB, rA, inA);
+    write_map(out.path("map_BA.txt"), mBA);
+    write_surface(out.path("B_on_A.obj"), TriMesh{map_positions(mBA, inA.V, inA.F), inB.F});
   }
   timer.start("pictures");
   const auto figures = surface_map_figures(A, B, r.map_AB, bij ? &r.map_BA : nullptr);

@@ -65,18 +65,20 @@ TEST(BadInputCli, SurfacesTheTetrahedralizerCannotMesh) {
   const TriMesh s = make_sphere_file(t);
   // Too few tets asked for: CGAL produces none (it used to print a banner and exit 1).
   expect_one_line_error(t, "tetrahedralize " + t.p("s.obj") + " --tets 1 -o " + t.p("o.vtk"), "s.obj");
-  // An unused vertex (a CGAL assertion before).
+  // An unused vertex (a CGAL assertion before; now set aside by the input repairs, and
+  // refused with --strict).
   TriMesh u = s;
   u.V.conservativeResize(u.V.rows() + 1, 3);
   u.V.row(u.V.rows() - 1) = Eigen::RowVector3d(9, 9, 9);
   write_surface(t.p("u.obj"), u);
-  expect_one_line_error(t, "tetrahedralize " + t.p("u.obj") + " -o " + t.p("o.vtk"), "used by no face");
-  // Two vertices at one position: degenerate faces (CGAL failed, or warned and went on).
+  expect_one_line_error(t, "--strict tetrahedralize " + t.p("u.obj") + " -o " + t.p("o.vtk"), "1 unreferenced vertex");
+  // Two vertices at one position: degenerate faces (CGAL failed, or warned and went on);
+  // repaired (merged, the two faces removed) unless --strict.
   TriMesh d = s;
   d.V.row(d.F(0, 1)) = d.V.row(d.F(0, 0));
   write_surface(t.p("d.obj"), d);
-  expect_one_line_error(t, "tetrahedralize " + t.p("d.obj") + " -o " + t.p("o.vtk"), "degenerate");
-  expect_one_line_error(t, "ball " + t.p("d.obj") + " -o " + t.p("b"), t.p("d.obj") + ": 2 degenerate");
+  expect_one_line_error(t, "tetrahedralize --strict " + t.p("d.obj") + " -o " + t.p("o.vtk"), "degenerate");
+  expect_one_line_error(t, "ball --strict " + t.p("d.obj") + " -o " + t.p("b"), t.p("d.obj") + ": 1 duplicate vertex");
   EXPECT_FALSE(fs::exists(t.dir / "o.vtk"));
   EXPECT_FALSE(fs::exists(t.dir / "b"));
   // A vertex pushed through the far side: `check` reports the crossing faces.
@@ -92,7 +94,8 @@ TEST(BadInputCli, SurfacesTheTetrahedralizerCannotMesh) {
     const std::string cmd = std::string(SHAPEMAP_BINARY) + " --threads 1 surface-map " + t.p("d.obj") + " " +
                             t.p("s.obj") + " -o " + t.p("sm") + " > /dev/null 2> " + err;  // not quiet: notes
     ASSERT_EQ(std::system(cmd.c_str()), 0) << slurp(err);
-    EXPECT_NE(slurp(err).find(t.p("d.obj") + ": note: 2 zero-area faces"), std::string::npos) << slurp(err);
+    EXPECT_NE(slurp(err).find(t.p("d.obj") + ": note: 1 duplicate vertex merged"), std::string::npos) << slurp(err);
+    EXPECT_NE(slurp(err).find(t.p("d.obj") + ": note: 2 degenerate faces removed"), std::string::npos) << slurp(err);
   }
   // A surface scaled to zero: the message names the file.
   TriMesh z = s;
