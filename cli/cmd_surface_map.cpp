@@ -35,6 +35,7 @@ struct SurfaceMapArgs {
 struct Inputs {
   TriMesh A, B;
   std::vector<int> la, lb;
+  std::vector<std::string> notes;  // repeated landmarks (tidy_landmark_pairs)
 };
 
 Inputs read_inputs(const SurfaceMapArgs& a) {
@@ -45,9 +46,7 @@ Inputs read_inputs(const SurfaceMapArgs& a) {
     if (a.landmarks.size() != 2) throw InputError("--landmarks: needs two files, LA and LB");
     in.la = read_landmarks(a.landmarks[0], in.A.V);
     in.lb = read_landmarks(a.landmarks[1], in.B.V);
-    if (in.la.size() != in.lb.size())
-      throw InputError(a.landmarks[1] + ": " + std::to_string(in.lb.size()) + " landmarks, but " + a.landmarks[0] +
-                       " has " + std::to_string(in.la.size()));
+    in.notes = tidy_landmark_pairs(in.la, in.lb, a.landmarks[0], a.landmarks[1]);
     if (in.la.size() < 3) throw InputError(a.landmarks[0] + ": at least 3 landmarks are needed");
   }
   return in;
@@ -101,6 +100,7 @@ int run_bim(const SurfaceMapArgs& a, const ElasticCliOptions& eo, const GlobalOp
   StageTimer timer;
   timer.start("read");
   Inputs in = read_inputs(a);
+  for (const std::string& n : in.notes) info(g, n);
   OutputDir out(a.out);
   BIMOptions o = bim_options(a, g, in);
   // Safe repairs (or --strict's refusal), then the library's input guard, before the

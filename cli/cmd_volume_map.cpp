@@ -73,8 +73,7 @@ VolumeInput load_volume_input(const std::string& path, const std::string& name, 
 // vertices (x y z lines snap to the nearest boundary vertex); for a surface input its surface
 // vertices, carried to the nearest boundary vertex of the tet mesh made from it (their
 // numbering differs: Mesh_3 remeshes the surface).
-std::vector<int> volume_landmarks(const std::string& file, const VolumeInput& in, const TetBoundary& bd,
-                                  const std::string& input_path) {
+std::vector<int> volume_landmarks(const std::string& file, const VolumeInput& in, const TetBoundary& bd) {
   const std::vector<int> cand(bd.to_volume.data(), bd.to_volume.data() + bd.to_volume.size());
   if (!in.from_surface) return read_landmarks(file, in.mesh.V, cand);
   const std::vector<int> on_surface = read_landmarks(file, in.given.V);
@@ -84,12 +83,7 @@ std::vector<int> volume_landmarks(const std::string& file, const VolumeInput& in
     int best = cand.front();
     for (int v : cand)
       if ((in.mesh.V.row(v) - x).squaredNorm() < (in.mesh.V.row(best) - x).squaredNorm()) best = v;
-    for (size_t j = 0; j < out.size(); ++j)
-      if (out[j] == best)
-        throw InputError(file + ": landmarks " + std::to_string(j + 1) + " and " + std::to_string(k + 1) +
-                         " fall on the same vertex of the tet mesh made from " + input_path +
-                         " (use more tets, --tets, or landmarks farther apart)");
-    out.push_back(best);
+    out.push_back(best);  // two landmarks on one tet vertex: repeats (tidy_landmark_pairs)
   }
   return out;
 }
@@ -217,8 +211,9 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
     BarycentricMap i12, i21;
     std::string init_detail = init;
     if (init == "landmarks") {
-      std::vector<int> LA = volume_landmarks(a->landmarks[0], inA, bA, a->A);
-      std::vector<int> LB = volume_landmarks(a->landmarks[1], inB, bB, a->B);
+      std::vector<int> LA = volume_landmarks(a->landmarks[0], inA, bA);
+      std::vector<int> LB = volume_landmarks(a->landmarks[1], inB, bB);
+      for (const std::string& n : tidy_landmark_pairs(LA, LB, a->landmarks[0], a->landmarks[1])) info(g, n);
       if (LA.size() != LB.size())
         throw InputError(a->landmarks[1] + ": " + std::to_string(LB.size()) + " landmarks but " +
                          a->landmarks[0] + " has " + std::to_string(LA.size()));

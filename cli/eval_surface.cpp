@@ -123,9 +123,7 @@ Command register_evaluate_surface(CLI::App& evaluate, GlobalOptions& g) {
       j["geodesic_error"] = curve_json(surface_map_error(map, t, B.V, B.F, o, make_progress(g)));
     } else if (!a->landmarks.empty()) {
       std::vector<int> la = read_landmarks(a->landmarks[0], A.V), lb = read_landmarks(a->landmarks[1], B.V);
-      if (la.size() != lb.size())
-        throw InputError(a->landmarks[1] + ": " + std::to_string(lb.size()) + " landmarks, but " +
-                         a->landmarks[0] + " has " + std::to_string(la.size()));
+      for (const std::string& n : tidy_landmark_pairs(la, lb, a->landmarks[0], a->landmarks[1])) info(g, n);
       j["landmarks"] = a->landmarks;
       SurfaceErrorCurve cv = surface_landmark_error(map, la, lb, B.V, B.F, o);
       j["geodesic_error"] = curve_json(cv);

@@ -117,11 +117,9 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
     if (args.landmarks.size() != 2) throw InputError("--landmarks: expected two files LA LB");
     std::vector<int> la = read_landmarks(args.landmarks[0], inA.V);
     std::vector<int> lb = read_landmarks(args.landmarks[1], inB.V);
+    for (const std::string& n : tidy_landmark_pairs(la, lb, args.landmarks[0], args.landmarks[1])) info(g, n);
     for (int& v : la) v = repaired_vertex(rA, v);
     for (int& v : lb) v = repaired_vertex(rB, v);
-    if (la.size() != lb.size())
-      throw InputError(args.landmarks[1] + ": " + std::to_string(lb.size()) +
-                       " landmarks, but " + args.landmarks[0] + " has " + std::to_string(la.size()));
     BIMOptions bo = args.bim;
     bo.name_A = args.A;
     bo.name_B = args.B;

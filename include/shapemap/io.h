@@ -36,7 +36,17 @@ Eigen::MatrixXd read_points(const std::string& path);
 
 // Landmarks: one 0-based vertex index per line, or "x y z" per line (snapped to the
 // nearest vertex among `candidates`, all vertices if empty). '#' comments allowed.
-// Throws InputError if the file has none, or names the same vertex twice.
+// Throws InputError if the file has none. A vertex may appear more than once (real files
+// repeat points): tidy_landmark_pairs says what becomes of repeats.
+// Landmark pairs LA[k] <-> LB[k] as users' files have them: a pair given more than once is
+// kept once; a vertex given two different partners keeps both pairs (they act as two soft
+// constraints: BIM's Mobius triplets skip a repeated point, the volume map's landmark
+// initialization copies the nearest landmark's first partner). Returns one note per
+// merged or kept repeat (empty if none). Throws InputError naming fileB when the counts
+// differ.
+std::vector<std::string> tidy_landmark_pairs(std::vector<int>& LA, std::vector<int>& LB,
+                                            const std::string& fileA, const std::string& fileB);
+
 std::vector<int> read_landmarks(const std::string& path, const Eigen::MatrixXd& V,
                                 const std::vector<int>& candidates = {});
 

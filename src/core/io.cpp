@@ -5,6 +5,7 @@
 #include <Eigen/Geometry>
 #include <unistd.h>
 #include <algorithm>
+#include <map>
 #include <atomic>
 #include <cerrno>
 #include <cstdio>
@@ -341,14 +342,47 @@ std::vector<int> read_landmarks(const std::string& path, const Eigen::MatrixXd& 
     P.skip_line();
   }
   if (out.empty()) throw InputError(path + ": no landmarks");
-  // The same vertex twice (listed, or two points snapped to it) would ask one vertex to
-  // correspond to two places.
-  std::vector<int> sorted = out;
-  std::sort(sorted.begin(), sorted.end());
-  const auto dup = std::adjacent_find(sorted.begin(), sorted.end());
-  if (dup != sorted.end())
-    throw InputError(path + ": vertex " + std::to_string(*dup) + " is given more than once (landmarks must be distinct)");
   return out;
+}
+
+std::vector<std::string> tidy_landmark_pairs(std::vector<int>& LA, std::vector<int>& LB,
+                                            const std::string& fileA, const std::string& fileB) {
+  if (LA.size() != LB.size())
+    throw InputError(fileB + ": " + std::to_string(LB.size()) + " landmarks, but " + fileA + " has " +
+                     std::to_string(LA.size()));
+  std::vector<std::string> notes;
+  std::vector<int> a, b;
+  std::map<std::pair<int, int>, size_t> seen;  // pair -> first line (0-based)
+  int merged = 0;
+  for (size_t k = 0; k < LA.size(); ++k) {
+    const auto it = seen.find({LA[k], LB[k]});
+    if (it != seen.end()) {
+      ++merged;
+      if (merged <= 3)
+        notes.push_back(fileA + ", " + fileB + ": note: landmark pair " + std::to_string(k + 1) + " (vertices " +
+                        std::to_string(LA[k]) + ", " + std::to_string(LB[k]) + ") repeats pair " +
+                        std::to_string(it->second + 1) + ": kept once");
+      continue;
+    }
+    seen[{LA[k], LB[k]}] = k;
+    a.push_back(LA[k]);
+    b.push_back(LB[k]);
+  }
+  if (merged > 3)
+    notes.push_back(fileA + ", " + fileB + ": note: " + std::to_string(merged) + " repeated landmark pairs kept once in all");
+  // A vertex with several partners (on either side): both pairs stay.
+  for (int side = 0; side < 2; ++side) {
+    const std::vector<int>& v = side == 0 ? a : b;
+    std::map<int, int> count;
+    for (int x : v) ++count[x];
+    for (const auto& [x, c] : count)
+      if (c > 1)
+        notes.push_back((side == 0 ? fileA : fileB) + ": note: vertex " + std::to_string(x) + " has " +
+                        std::to_string(c) + " different partners: all kept (soft constraints)");
+  }
+  LA.swap(a);
+  LB.swap(b);
+  return notes;
 }
 
 }  // namespace shapemap

@@ -470,6 +470,34 @@ TEST(IO, Landmarks) {
   EXPECT_EQ(error_of([&] { read_landmarks(p, m.V); }), p + ": no landmarks");
 }
 
+// Real landmark files repeat points (the symmetric-volume-maps authors' files repeat one
+// position three times): a repeated pair is kept once; a vertex with two different
+// partners keeps both pairs; both are said in notes; unequal counts are an error.
+TEST(IO, RepeatedLandmarksAreTidiedNotRefused) {
+  TriMesh m = octahedron();
+  const std::string p = scratch("lm_rep.txt");
+  write_file(p, "3\n5\n3\n1.0 0.1 -0.05\n0\n");  // 3 twice, the point snaps to 0 (twice then)
+  std::vector<int> la = read_landmarks(p, m.V);
+  EXPECT_EQ(la, (std::vector<int>{3, 5, 3, 0, 0}));
+  std::vector<int> lb = {1, 2, 1, 4, 4};  // pairs 1 = 3 and 4 = 5 repeat exactly
+  std::vector<std::string> notes = tidy_landmark_pairs(la, lb, "a.txt", "b.txt");
+  EXPECT_EQ(la, (std::vector<int>{3, 5, 0}));
+  EXPECT_EQ(lb, (std::vector<int>{1, 2, 4}));
+  ASSERT_EQ(notes.size(), 2u);
+  EXPECT_NE(notes[0].find("landmark pair 3 (vertices 3, 1) repeats pair 1: kept once"), std::string::npos);
+  EXPECT_NE(notes[1].find("landmark pair 5"), std::string::npos);
+  // A vertex with two partners: both pairs stay.
+  la = {3, 3, 5};
+  lb = {1, 2, 4};
+  notes = tidy_landmark_pairs(la, lb, "a.txt", "b.txt");
+  EXPECT_EQ(la.size(), 3u);
+  ASSERT_EQ(notes.size(), 1u);
+  EXPECT_NE(notes[0].find("a.txt: note: vertex 3 has 2 different partners: all kept"), std::string::npos);
+  la = {1, 2};
+  lb = {1};
+  EXPECT_EQ(error_of([&] { tidy_landmark_pairs(la, lb, "a.txt", "b.txt"); }), "b.txt: 1 landmarks, but a.txt has 2");
+}
+
 TEST(IO, PathKinds) {
   EXPECT_TRUE(is_volume_path("a/b.VTK"));
   EXPECT_TRUE(is_volume_path("x.ele"));
