@@ -23,6 +23,7 @@
 #include <Eigen/Dense>
 #include <unistd.h>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <fstream>
 #include <iterator>
@@ -152,6 +153,18 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
   c.app->add_option("--gamma", a->opt.gamma, "Eq. 25 projection weight gamma")->check(non_negative())->capture_default_str();
   c.app->add_option("--beta-start", a->opt.beta_start, "Eq. 25 beta at the first iteration")->check(non_negative())->capture_default_str();
   c.app->add_option("--beta-end", a->opt.beta_end, "Eq. 25 beta after the ramp")->check(non_negative())->capture_default_str();
+  c.app->add_option("--beta-ramp-iterations", a->opt.beta_ramp_iterations,
+                    "Sec. 4.4: outer iterations over which beta (and gamma, with --gamma-start) ramp")
+      ->check(non_negative())
+      ->capture_default_str();
+  c.app->add_option("--gamma-start", a->opt.gamma_start,
+                    "gamma at the first iteration, ramped to --gamma with beta (the authors' code; "
+                    "default -1: gamma constant, Sec. 5.5)")
+      ->capture_default_str();
+  c.app->add_option("--backward-projection-scale", a->opt.backward_projection_scale,
+                    "Eq. 23: E_P = E_P,f + scale E_P,b (paper: 1; the authors' code: 10)")
+      ->check(non_negative())
+      ->capture_default_str();
   c.app->add_option("--max-iterations", a->opt.max_iterations, "Outer iterations per stage (Sec. 5.4)")
       ->check(non_negative())
       ->capture_default_str();
@@ -171,6 +184,9 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
   c.app->add_option("--newton-iterations", a->opt.newton_iterations, "Newton iterations per X-step at most")
       ->check(non_negative())
       ->capture_default_str();
+  c.app->add_flag("--no-land-on-target", [a](std::int64_t) { a->opt.land_on_target = false; },
+                  "Skip the final stage that puts X's boundary on the target's boundary and relaxes the "
+                  "interior (ours; without it the map files snap images left outside into the target)");
   c.app->add_flag("--boundary-to-boundary", a->opt.boundary_to_boundary,
                   "Hard boundary constraint in the P-step (Sec. 5.2)");
 
@@ -345,9 +361,10 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
     j["parameters"] = {{"init", init_detail}, {"alpha", o.alpha}, {"gamma", o.gamma},
                        {"beta_start", o.beta_start}, {"beta_end", o.beta_end},
                        {"beta_ramp_iterations", o.beta_ramp_iterations},
+                       {"gamma_start", o.gamma_start}, {"backward_projection_scale", o.backward_projection_scale},
                        {"max_iterations", o.max_iterations}, {"solver", a->solver},
                        {"newton_iterations", o.newton_iterations},
-                       {"boundary_fixed_stage", o.fix_boundary_first}, {"xstep_iterations", o.xstep_iterations},
+                       {"boundary_fixed_stage", o.fix_boundary_first}, {"land_on_target", o.land_on_target}, {"xstep_iterations", o.xstep_iterations},
                        {"grad_tol", o.grad_tol}, {"decrease_tol", o.decrease_tol},
                        {"repair_rings", o.repair_rings}, {"post_repair_steps", o.post_repair_steps},
                        {"boundary_to_boundary", o.boundary_to_boundary}};

@@ -687,7 +687,14 @@ SymmetricVolumeMapResult symmetric_volume_map(const TetMesh& A, const TetMesh& B
     double t = std::min(1.0, double(it) / opt.beta_ramp_iterations);
     return opt.beta_start + (opt.beta_end - opt.beta_start) * t;
   };
-  double beta = beta_at(0);
+  // gamma ramps with beta over the same iterations when gamma_start >= 0 (the authors'
+  // released code: both from 1/N of their final values), else stays at gamma.
+  auto gamma_at = [&](int it) {
+    if (opt.gamma_start < 0 || opt.beta_ramp_iterations <= 0) return opt.gamma;
+    double t = std::min(1.0, double(it) / opt.beta_ramp_iterations);
+    return opt.gamma_start + (opt.gamma - opt.gamma_start) * t;
+  };
+  double beta = beta_at(0), gamma = gamma_at(0);
   auto set_weights = [&](double a, double b, double g) {
     e12.set_weights(a, b, g, opt.backward_projection_scale);
     e21.set_weights(a, b, g, opt.backward_projection_scale);
@@ -714,7 +721,8 @@ SymmetricVolumeMapResult symmetric_volume_map(const TetMesh& A, const TetMesh& B
     }
     for (int it = 0; it < opt.max_iterations; ++it) {
       beta = beta_at(global_iter);
-      set_weights(opt.alpha, beta, opt.gamma);
+      gamma = gamma_at(global_iter);
+      set_weights(opt.alpha, beta, gamma);
       auto tp = Clock::now();
       // P-steps (Algorithm 1 lines 8 / 18), boundary restored in stage 2 (line 10)
       p12.run(X12, X21, opt.alpha, beta, opt.boundary_to_boundary, fix_boundary ? &bd1 : nullptr,
@@ -806,7 +814,7 @@ SymmetricVolumeMapResult symmetric_volume_map(const TetMesh& A, const TetMesh& B
       if (fallback_rings > 0 && inverted_start > 0 && count_inverted(arap, X) >= inverted_start)
         X = X_start;
     }
-    set_weights(opt.alpha, beta, opt.gamma);
+    set_weights(opt.alpha, beta, gamma);
     st.energy = e12.evaluate(X12) + e21.evaluate(X21);
     st.inverted12 = count_inverted(e12.arap(), X12);
     st.inverted21 = count_inverted(e21.arap(), X21);
@@ -818,7 +826,7 @@ SymmetricVolumeMapResult symmetric_volume_map(const TetMesh& A, const TetMesh& B
   {  // Stage 1 record: the initial map.
     SymmetricMapStage st;
     st.name = "init";
-    set_weights(opt.alpha, beta, opt.gamma);
+    set_weights(opt.alpha, beta, gamma);
     e12.set_maps(P12, P21);
     e21.set_maps(P21, P12);
     st.energy = e12.evaluate(X12) + e21.evaluate(X21);
@@ -832,8 +840,85 @@ SymmetricVolumeMapResult symmetric_volume_map(const TetMesh& A, const TetMesh& B
   repair("post-repair", 0, opt.post_repair_steps, opt.post_repair_rounds,
          opt.post_repair_fallback_rings);                               // stage 5
 
+  // Ours (issue 19): the map files hold barycentric coordinates in the target's tets, so a
+  // boundary that the penalty gamma E_P left off the target would be snapped into it after
+  // the fact, inverting tets there (5-20x more than X had, on real pairs). Instead the
+  // boundary of X is put on the target's boundary exactly (closest points), and the
+  // interior relaxed with the boundary held: Newton on the X-step objective, then the
+  // ARAP repair of Sec. 5.3 on inverted tets' interior vertices. X and the map files are
+  // then one map.
+  BarycentricMap final12, final21;  // the map files when landing
+  if (opt.land_on_target) {
+    SymmetricMapStage st;
+    st.name = "land-on-target";
+    auto t0 = Clock::now();
+    set_weights(opt.alpha, beta, gamma);
+    for (int dir = 0; dir < 2; ++dir) {
+      DirectionalEnergy& e = dir == 0 ? e12 : e21;
+      Eigen::MatrixXd& X = dir == 0 ? X12 : X21;
+      const TetMesh& Mi = dir == 0 ? M1 : M2;
+      const std::vector<int>& interior = dir == 0 ? int1 : int2;
+      const TetBoundary& bi = e.boundary_i();
+      const TetBoundary& bj = e.boundary_j();
+      const TetMesh& Mj = dir == 0 ? M2 : M1;
+      std::vector<int> brows(bi.to_volume.data(), bi.to_volume.data() + bi.to_volume.size());
+      // What the map files would hold without this stage: X located in M_j, the boundary
+      // snapped to dM_j.
+      const BarycentricMap snapped_map = locate_in_tets(Mj, X, brows);
+      const Eigen::MatrixXd snapped = map_positions(snapped_map, Mj.V, Mj.T);
+      ClosestPoint3 target(bj.surface.V, bj.surface.F);
+      Eigen::MatrixXd Q(bi.to_volume.size(), 3);
+      for (int b = 0; b < Q.rows(); ++b) Q.row(b) = X.row(bi.to_volume(b));
+      const std::vector<ClosestPointResult> hit = target.query(Q);
+      for (int b = 0; b < Q.rows(); ++b) {
+        Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
+        for (int c = 0; c < 3; ++c) p += hit[b].bary(c) * bj.surface.V.row(bj.surface.F(hit[b].elem, c));
+        X.row(bi.to_volume(b)) = p;
+      }
+      ProjectedNewton pn(BlockHessian(Mi.T, Mi.num_vertices(), interior));
+      NewtonOptions no;
+      no.max_iterations = opt.land_newton_iterations;
+      no.f_rel_tol = opt.newton_rel_tol;
+      no.grad_tol = 0;
+      LbfgsResult r = newton_rows(e, pn, X, no, st.newton_seconds);
+      st.lbfgs_iterations += r.iterations;
+      st.evaluations += r.evaluations;
+      // Sec. 5.3's repair, boundary held: interior vertices of inverted tets and one ring.
+      const ArapEnergy& arap = e.arap();
+      std::vector<char> is_interior(Mi.num_vertices(), 0);
+      for (int v : interior) is_interior[v] = 1;
+      for (int round = 0; round < opt.post_repair_rounds; ++round) {
+        std::vector<int> verts, tets, free;
+        inverted_neighbourhood(arap, X, opt.repair_rings, dir == 0 ? vv1 : vv2, dir == 0 ? vt1 : vt2, verts, tets);
+        for (int v : verts)
+          if (is_interior[v]) free.push_back(v);
+        if (free.empty()) break;
+        auto f = [&](const Eigen::MatrixXd& Y, Eigen::MatrixXd* g) { return arap.energy(Y, tets, g); };
+        st.iterations += minimize_rows(f, X, free, opt.post_repair_steps, opt.lbfgs_memory).iterations;
+      }
+      // The map files of the landed X (interior images that still fall outside M_j are
+      // snapped too); kept unless they invert more tets than the snapped X of stage 5.
+      // Either way X becomes exactly what the files hold.
+      const BarycentricMap landed_map = locate_in_tets(Mj, X, brows);
+      const Eigen::MatrixXd landed = map_positions(landed_map, Mj.V, Mj.T);
+      const bool keep = count_inverted(arap, landed) <= count_inverted(arap, snapped);
+      X = keep ? landed : snapped;
+      // Barycentric coordinates do not change with the unit-volume scaling: these are the
+      // map files, exactly.
+      (dir == 0 ? final12 : final21) = keep ? landed_map : snapped_map;
+      st.stop_reason += std::string(st.stop_reason.empty() ? "" : ", ") + (dir == 0 ? "AB " : "BA ") +
+                        (keep ? "landed" : "snapped (landing inverted more)");
+    }
+    st.energy = e12.evaluate(X12) + e21.evaluate(X21);
+    st.inverted12 = count_inverted(e12.arap(), X12);
+    st.inverted21 = count_inverted(e21.arap(), X21);
+    st.seconds = seconds_since(t0);
+    res.stages.push_back(st);
+    report(progress, "volume-map/land-on-target", 1.0);
+  }
+
   // Final energies (Eq. 25 terms), unit-volume frame.
-  set_weights(opt.alpha, beta, opt.gamma);
+  set_weights(opt.alpha, beta, gamma);
   e12.set_maps(P12, P21);
   e21.set_maps(P21, P12);
   DirectionalEnergy::Terms t1, t2;
@@ -854,8 +939,15 @@ SymmetricVolumeMapResult symmetric_volume_map(const TetMesh& A, const TetMesh& B
     if (bd1[v]) b1.push_back(v);
   for (int v = 0; v < n2; ++v)
     if (bd2[v]) b2.push_back(v);
-  res.map12 = locate_in_tets(B, res.X12, b1);
-  res.map21 = locate_in_tets(A, res.X21, b2);
+  if (opt.land_on_target) {  // X is the map files' positions: the same numbers, unscaled
+    res.map12 = final12;
+    res.map21 = final21;
+    res.X12 = map_positions(final12, B.V, B.T);
+    res.X21 = map_positions(final21, A.V, A.T);
+  } else {
+    res.map12 = locate_in_tets(B, res.X12, b1);
+    res.map21 = locate_in_tets(A, res.X21, b2);
+  }
   return res;
 }
 

@@ -44,6 +44,9 @@ struct SymmetricVolumeMapOptions {
   double beta_start = 0.25;    // Sec. 4.4: E_Q weight at the first iteration ...
   double beta_end = 5.0;       // ... increased linearly to this ...
   int beta_ramp_iterations = 20;  // ... over this many outer iterations (Sec. 4.4, 5.5)
+  double gamma_start = -1;     // >= 0: gamma ramps linearly from this to gamma over the
+                               // beta_ramp_iterations (the authors' code: both from 1/N);
+                               // < 0: gamma constant (the paper's Sec. 5.5)
   double backward_projection_scale = 1.0;  // Eq. 23: E_P = E_P,f + scale * E_P,b (paper: 1)
   // Stopping rules of stages 2 and 4 (Sec. 5.4). The decrease rule only applies once
   // beta has reached beta_end (while beta grows, Eq. 25 itself changes).
@@ -62,6 +65,13 @@ struct SymmetricVolumeMapOptions {
   // rounds again on this many rings around them (stage 3's neighbourhood), and stage 5 is
   // undone per direction unless it lowered the inverted count; 0 = off (the paper's stage).
   int post_repair_fallback_rings = 1;
+  // Ours (issue 19), after stage 5: the boundary of X projected onto the target's boundary,
+  // the interior relaxed with it held (Newton, at most land_newton_iterations, then the
+  // Sec. 5.3 repair on interior vertices); per direction the result replaces X unless its
+  // located copy inverts more tets than stage 5's X located in the target ("snapped"). X is
+  // then exactly what the map files (barycentric coordinates in the target) hold.
+  bool land_on_target = true;
+  int land_newton_iterations = 10;
   bool fix_boundary_first = true;  // Algorithm 1 lines 6-10 (stage 2): boundary of X fixed,
                                    // boundary rows of P restored each iteration
   bool boundary_to_boundary = false;  // Sec. 5.2: hard constraint P in P*_ij (boundary rows
@@ -89,8 +99,9 @@ struct SymmetricMapStage {
 struct SymmetricVolumeMapResult {
   Eigen::MatrixXd X12, X21;  // n1×3 in M2's original coordinates, n2×3 in M1's
   BarycentricMap P12, P21;   // the P variables (Sec. 4.2), vertex -> target tet
-  BarycentricMap map12, map21;  // X located in the target (boundary vertices snapped to
-                                // the target boundary): the map files of the CLI
+  BarycentricMap map12, map21;  // the map files of the CLI: with land_on_target, X itself
+                                // (X12 = map12 applied to B); else X located in the target,
+                                // boundary vertices snapped to the target boundary
   std::vector<SymmetricMapStage> stages;
   // Eq. 25 terms at the end, unit-volume frame, final weights.
   double E = 0, E_arap = 0, E_R = 0, E_P = 0, E_Q = 0;
