@@ -366,6 +366,7 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
                        {"newton_iterations", o.newton_iterations},
                        {"boundary_fixed_stage", o.fix_boundary_first}, {"land_on_target", o.land_on_target}, {"xstep_iterations", o.xstep_iterations},
                        {"grad_tol", o.grad_tol}, {"decrease_tol", o.decrease_tol},
+                       {"decrease_rel_tol", o.decrease_rel_tol},
                        {"repair_rings", o.repair_rings}, {"post_repair_steps", o.post_repair_steps},
                        {"boundary_to_boundary", o.boundary_to_boundary}};
     nlohmann::json stages = nlohmann::json::array();

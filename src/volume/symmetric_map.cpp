@@ -769,7 +769,8 @@ SymmetricVolumeMapResult symmetric_volume_map(const TetMesh& A, const TetMesh& B
       }
       // Only once beta is final, and between two iterations at that beta: the first
       // iteration at beta_end has a larger E_Q weight than the one before (E rises).
-      if (ramp_done && beta_prev == beta && E_prev - E < opt.decrease_tol) {
+      if (ramp_done && beta_prev == beta &&
+          E_prev - E < std::max(opt.decrease_tol, opt.decrease_rel_tol * std::abs(E))) {
         st.stop_reason = "decrease";
         break;
       }
