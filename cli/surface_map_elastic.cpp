@@ -46,6 +46,8 @@ void add_elastic_options(CLI::App* app, ElasticCliOptions& o) {
       ->check(non_negative());
   app->add_flag("--elastic-keep-orientation", o.keep_orientation,
                 "elastic: the Y-step line search never passes a triangle through zero area");
+  app->add_flag("--elastic-gamma-ramp", o.gamma_ramp,
+                "elastic: ramp the reversibility weight gamma (Eq. 6) from 0 with beta's schedule");
   app->add_flag("--elastic-keep-worse", o.keep_worse,
                 "elastic: return the last iterate even when it has more flipped or collapsed "
                 "triangles than the initial map (default: the collapse guard keeps the latest "
@@ -198,6 +200,7 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
   if (o.beta_start >= 0) eo.beta_start = std::min(o.beta_start, eo.beta_end);
   if (o.log_eps >= 0) eo.log_eps = o.log_eps;
   eo.keep_orientation = o.keep_orientation;
+  eo.gamma_ramp = o.gamma_ramp;
   eo.progress = make_progress(g);
   const ElasticResult r = elastic_correspondence(A, B, initAB, initBA, eo);
   if (!r.map_AB.bary.allFinite() || !r.Y.allFinite())
@@ -225,7 +228,7 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
                           {"energy_tol", eo.energy_tol},
                           {"inner_max_iterations", eo.inner_max_iterations},
                           {"inner_tol", eo.inner_tol}, {"unit_area", eo.normalize_area},
-                          {"keep_orientation", eo.keep_orientation}};
+                          {"keep_orientation", eo.keep_orientation}, {"gamma_ramp", eo.gamma_ramp}};
   // Energies per outer iteration, summarized: first, last, and at most 50 samples.
   nlohmann::json en;
   std::vector<double> E, ep, ed;
@@ -319,6 +322,11 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
     metrics["initial"]["BA"] = surface_map_metrics_json(B, A, initBA, &initAB, nullptr);
     metrics["final"]["BA"] = surface_map_metrics_json(B, A, r.map_BA, &r.map_AB, nullptr);
   }
+  // The last iterate too when the guard returned another map (what the guard avoided).
+  if (r.last_AB.size() > 0)
+    metrics["last_iterate"]["AB"] = surface_map_metrics_json(A, B, r.last_AB, nullptr, has_truth ? &truth : nullptr);
+  if (bij && r.last_BA.size() > 0)
+    metrics["last_iterate"]["BA"] = surface_map_metrics_json(B, A, r.last_BA, nullptr, nullptr);
   report["metrics"] = metrics;
   // Per stage (initial map -> elastic), per direction: did the map improve? Improved = no more
   // flipped or collapsed triangles and a lower mean conformal distortion (and, with --truth,

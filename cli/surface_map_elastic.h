@@ -21,6 +21,7 @@ struct ElasticCliOptions {
   double beta_start = -1;                // Sec. 5.2 beta ramp start (default: ElasticOptions, 1e3)
   double log_eps = -1;                   // Sec. 4.1 log threshold (default 1e-4; 0 = true barrier)
   bool keep_orientation = false;         // ElasticOptions::keep_orientation
+  bool gamma_ramp = false;               // ElasticOptions::gamma_ramp
   bool keep_worse = false;               // turn the collapse guard off (ElasticOptions::keep_no_worse)
 };
 

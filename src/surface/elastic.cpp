@@ -567,13 +567,14 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
   }
   res.time_setup = seconds_since(t_start);
 
-  const double gamma = opt.gamma * wscale;
+  const double gamma_full = opt.gamma * wscale;
   double E_prev = 0;
   const int K = opt.max_outer_iterations;
   for (int k = 0; k < K; ++k) {
     const int ramp = std::max(1, opt.beta_ramp_iterations);
     const double frac = std::min(1.0, double(k) / double(ramp));
     const double beta = (opt.beta_start + (opt.beta_end - opt.beta_start) * frac) * wscale;
+    const double gamma = opt.gamma_ramp ? gamma_full * frac : gamma_full;
     ElasticIterate it;
     it.beta = beta;
     EnergyParts pa, pb;
@@ -623,8 +624,8 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
     E_prev = it.energy;
   }
   if (K == 0) {  // no iterations: the initial maps, projected once
-    projection_step(a, b, opt.beta_start * wscale, gamma, bij);
-    if (bij) projection_step(b, a, opt.beta_start * wscale, gamma, bij);
+    projection_step(a, b, opt.beta_start * wscale, opt.gamma_ramp ? 0.0 : gamma_full, bij);
+    if (bij) projection_step(b, a, opt.beta_start * wscale, opt.gamma_ramp ? 0.0 : gamma_full, bij);
   }
   res.degenerate_faces_final =
       count_degenerate(a, opt.degenerate_tol) + (bij ? count_degenerate(b, opt.degenerate_tol) : 0);
@@ -632,7 +633,7 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
   // collapsed triangles than the start, or the start (ElasticOptions::keep_no_worse).
   auto guarded = [&](const DirectionLog& L, const Side& s, const BarycentricMap& init,
                      const TriMesh& T, const Normalization& nt, ElasticGuard& g,
-                     BarycentricMap& P_out, Eigen::MatrixXd& Y_out) {
+                     BarycentricMap& P_out, Eigen::MatrixXd& Y_out, BarycentricMap& last_out) {
     g.initial_bad = L.map0.bad();
     g.last_bad = L.map_folds(s.P, nullptr).bad();
     g.iteration = res.outer_iterations;
@@ -641,6 +642,7 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
     P_out = s.P;
     Y_out = nt.undo(Eigen::MatrixXd(s.Y));
     if (!opt.keep_no_worse || g.last_bad <= g.initial_bad) return;
+    last_out = s.P;
     if (L.keep_iteration > 0) {
       g.returned = ElasticReturned::EarlierIterate;
       g.iteration = L.keep_iteration;
@@ -655,8 +657,8 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
       g.returned_bad = g.initial_bad;
     }
   };
-  guarded(logA, a, init_AB, B, nb, res.guard_AB, res.map_AB, res.Y);
-  if (bij) guarded(logB, b, init_BA, A, na, res.guard_BA, res.map_BA, res.Ytilde);
+  guarded(logA, a, init_AB, B, nb, res.guard_AB, res.map_AB, res.Y, res.last_AB);
+  if (bij) guarded(logB, b, init_BA, A, na, res.guard_BA, res.map_BA, res.Ytilde, res.last_BA);
   res.time_total = seconds_since(t_start);
   return res;
 }

@@ -40,6 +40,10 @@ struct ElasticOptions {
   double beta_end = 2e5;          //   ... linearly to 2e5 ...
   int beta_ramp_iterations = 200; //   ... over the first 200 outer iterations)
   double gamma = 2e4;             // reversibility penalty, Eq. 6 (Sec. 5.2: 2e4); gamma~ = gamma
+  // Ramp gamma from 0 with beta's schedule (our addition, issue 20; the paper keeps it fixed):
+  // at gamma = 20 beta the first P step's R^6 closest point compares X with the chords
+  // Y~ = Q X and collapses triangles (docs/methods.md).
+  bool gamma_ramp = false;
   int max_outer_iterations = 300; // Algorithm 1: K = 300
   // Algorithm 1 stop: |E_k - E_{k-1}| < energy_tol * |E_k|, tested once beta has reached
   // beta_end (before, E changes because beta does). 0 = always run K iterations.
@@ -129,6 +133,7 @@ struct ElasticResult {
   int degenerate_faces_initial = 0;  // faces of Y (and Y~) masked at the start
   int degenerate_faces_final = 0;
   ElasticGuard guard_AB, guard_BA;   // which iterate each direction returns, and why
+  BarycentricMap last_AB, last_BA;   // the last iterate, kept only when the guard returned another
   // First collapses, per direction (AB: P and Y; BA: Q and Y~).
   ElasticCollapseEvent first_P_collapse, first_Y_collapse, first_Q_collapse, first_Yt_collapse;
 };
