@@ -48,6 +48,9 @@ void add_elastic_options(CLI::App* app, ElasticCliOptions& o) {
                 "elastic: the Y-step line search never passes a triangle through zero area");
   app->add_flag("--elastic-gamma-ramp", o.gamma_ramp,
                 "elastic: ramp the reversibility weight gamma (Eq. 6) from 0 with beta's schedule");
+  app->add_flag("--elastic-safe-projection", o.safe_projection,
+                "elastic: P/Q steps keep the previous row of vertices whose new one would flip or "
+                "collapse a mapped triangle");
   app->add_flag("--elastic-keep-worse", o.keep_worse,
                 "elastic: return the last iterate even when it has more flipped or collapsed "
                 "triangles than the initial map (default: the collapse guard keeps the latest "
@@ -201,6 +204,7 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
   if (o.log_eps >= 0) eo.log_eps = o.log_eps;
   eo.keep_orientation = o.keep_orientation;
   eo.gamma_ramp = o.gamma_ramp;
+  eo.safe_projection = o.safe_projection;
   eo.progress = make_progress(g);
   const ElasticResult r = elastic_correspondence(A, B, initAB, initBA, eo);
   if (!r.map_AB.bary.allFinite() || !r.Y.allFinite())
@@ -228,7 +232,8 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
                           {"energy_tol", eo.energy_tol},
                           {"inner_max_iterations", eo.inner_max_iterations},
                           {"inner_tol", eo.inner_tol}, {"unit_area", eo.normalize_area},
-                          {"keep_orientation", eo.keep_orientation}, {"gamma_ramp", eo.gamma_ramp}};
+                          {"keep_orientation", eo.keep_orientation}, {"gamma_ramp", eo.gamma_ramp},
+                          {"safe_projection", eo.safe_projection}};
   // Energies per outer iteration, summarized: first, last, and at most 50 samples.
   nlohmann::json en;
   std::vector<double> E, ep, ed;
@@ -302,6 +307,7 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
     return a;
   };
   report["elastic"]["guard"]["enabled"] = eo.keep_no_worse;
+  report["elastic"]["projection_rows_kept"] = r.projection_rows_kept;
   report["elastic"]["guard"]["AB"] = guard_json(r.guard_AB);
   report["elastic"]["first_collapse"]["AB"] = first_json(r.first_P_collapse, r.first_Y_collapse);
   report["elastic"]["folds_per_iteration"]["P"] = folds_json([](const ElasticIterate& i) -> const FoldCounts& { return i.P_folds; });
@@ -386,7 +392,7 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
     else if (gd.returned == ElasticReturned::Initial)
       info(g, head + "returning the initial map instead (report.json: elastic.guard)");
     else
-      info(g, "elastic: warning: " + head + "returned anyway (--elastic-keep-worse); a different bending weight "
+      info(g, "elastic: warning: " + head.substr(std::string("elastic: ").size()) + "returned anyway (--elastic-keep-worse); a different bending weight "
                   "(--elastic-eta, --elastic-preset) or a better initial map may help");
   }
   return 0;

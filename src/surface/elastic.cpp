@@ -120,13 +120,65 @@ struct Side {
   Eigen::MatrixXd projA, projB;
   std::vector<ClosestPointResult> proj;
   ElasticLbfgs lbfgs;           // Y-step L-BFGS buffers and (warm-start) curvature pairs
+  // safe projection (ElasticOptions::safe_projection): the previous P, the target's unit face
+  // normals, per-face flags, and how many rows kept their previous value so far
+  BarycentricMap P_prev;
+  Eigen::MatrixXd target_normals;
+  std::vector<unsigned char> fold_prev;
+  long long rows_kept = 0;
 };
+
+// Mapped triangle f of the source under P is folded: collapsed (area below 1e-6 of its rest
+// area) or flipped (normal against the target's at its corners' images).
+bool mapped_face_folds(const Side& s, const Side& t, const BarycentricMap& P, int f) {
+  Eigen::Vector3d y[3];
+  Eigen::Vector3d nt = Eigen::Vector3d::Zero();
+  for (int j = 0; j < 3; ++j) {
+    const int v = s.F(f, j), e = P.elem(v);
+    y[j] = (P.bary(v, 0) * t.X.row(t.F(e, 0)) + P.bary(v, 1) * t.X.row(t.F(e, 1)) +
+            P.bary(v, 2) * t.X.row(t.F(e, 2))).transpose();
+    nt += s.target_normals.row(e).transpose();
+  }
+  const Eigen::Vector3d x0 = s.X.row(s.F(f, 0));
+  const double nref = (Eigen::Vector3d(s.X.row(s.F(f, 1))) - x0).cross(Eigen::Vector3d(s.X.row(s.F(f, 2))) - x0).norm();
+  const Eigen::Vector3d n = (y[1] - y[0]).cross(y[2] - y[0]);
+  return !(n.norm() > 1e-6 * nref) || n.dot(nt) < 0;
+}
+
+// Issue 20 (ElasticOptions::safe_projection). The P step's energy is a sum over rows, so a
+// row may keep its previous value and E still does not increase (the previous P was the one
+// the last Y step was computed with). Rows of corners of a mapped triangle that the new rows
+// fold and the previous ones did not keep their previous value; repeated until no such
+// triangle is left (rows are only reverted, in face order: deterministic). Returns the count.
+int keep_rows_that_fold(Side& s, const Side& t) {
+  const int m = int(s.F.rows());
+  if (s.target_normals.rows() != t.F.rows()) s.target_normals = face_normals(t.X, t.F);
+  s.fold_prev.resize(m);
+  for (int f = 0; f < m; ++f) s.fold_prev[f] = mapped_face_folds(s, t, s.P_prev, f);
+  int kept = 0;
+  for (bool changed = true; changed;) {
+    changed = false;
+    for (int f = 0; f < m; ++f) {
+      if (s.fold_prev[f] || !mapped_face_folds(s, t, s.P, f)) continue;
+      for (int j = 0; j < 3; ++j) {
+        const int v = s.F(f, j);
+        if (s.P.elem(v) == s.P_prev.elem(v) && s.P.bary.row(v) == s.P_prev.bary.row(v)) continue;
+        s.P.elem(v) = s.P_prev.elem(v);
+        s.P.bary.row(v) = s.P_prev.bary.row(v);
+        ++kept;
+        changed = true;
+      }
+    }
+  }
+  return kept;
+}
 
 // P step: rows of B = [sqrt(beta) Y, sqrt(gamma) X] onto the target triangulation with
 // vertex coordinates A = [sqrt(beta) X~, sqrt(gamma) Y~] (Sec. 5.1 "Mapping optimization").
 // The BVH is built once and refit afterwards; every query starts from the previous face
 // of that vertex as a hint (the same exact closest point, fewer boxes visited).
-void projection_step(Side& s, const Side& t, double beta, double gamma, bool bijective) {
+void projection_step(Side& s, const Side& t, double beta, double gamma, bool bijective,
+                     bool safe) {
   const int n = int(s.X.rows());
   if (int(s.proj.size()) != n) {
     s.proj.assign(n, ClosestPointResult{});
@@ -159,6 +211,7 @@ void projection_step(Side& s, const Side& t, double beta, double gamma, bool bij
     for (int i = 0; i < n; ++i)
       s.proj[i] = s.bvh3.query(ClosestPoint3::Point(s.Y.row(i).transpose()), s.proj[i].elem);
   }
+  if (safe) s.P_prev = s.P;
   for (int i = 0; i < n; ++i) {
     if (s.proj[i].elem < 0) {  // keep the previous row (cannot happen on valid input)
       s.proj[i].elem = s.P.elem(i);
@@ -168,6 +221,7 @@ void projection_step(Side& s, const Side& t, double beta, double gamma, bool bij
     s.P.bary.row(i) = s.proj[i].bary.head<3>().transpose();
   }
   sanitize(s.P);
+  if (safe) s.rows_kept += keep_rows_that_fold(s, t);
   apply_map(s.P, t.F, t.X, s.PXt);
 }
 
@@ -579,14 +633,14 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
     it.beta = beta;
     EnergyParts pa, pb;
     auto t0 = Clock::now();
-    projection_step(a, b, beta, gamma, bij);  // P step
+    projection_step(a, b, beta, gamma, bij, opt.safe_projection);  // P step
     it.time_projection += seconds_since(t0);
     t0 = Clock::now();
     it.inner_iterations += deformation_step(a, b, beta, gamma, bij, opt, pa, it.inner_evaluations);  // Y step
     it.time_deformation += seconds_since(t0);
     if (bij) {
       t0 = Clock::now();
-      projection_step(b, a, beta, gamma, bij);  // Q step
+      projection_step(b, a, beta, gamma, bij, opt.safe_projection);  // Q step
       it.time_projection += seconds_since(t0);
       t0 = Clock::now();
       it.inner_iterations += deformation_step(b, a, beta, gamma, bij, opt, pb, it.inner_evaluations);  // Y~ step
@@ -624,8 +678,8 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
     E_prev = it.energy;
   }
   if (K == 0) {  // no iterations: the initial maps, projected once
-    projection_step(a, b, opt.beta_start * wscale, opt.gamma_ramp ? 0.0 : gamma_full, bij);
-    if (bij) projection_step(b, a, opt.beta_start * wscale, opt.gamma_ramp ? 0.0 : gamma_full, bij);
+    projection_step(a, b, opt.beta_start * wscale, opt.gamma_ramp ? 0.0 : gamma_full, bij, opt.safe_projection);
+    if (bij) projection_step(b, a, opt.beta_start * wscale, opt.gamma_ramp ? 0.0 : gamma_full, bij, opt.safe_projection);
   }
   res.degenerate_faces_final =
       count_degenerate(a, opt.degenerate_tol) + (bij ? count_degenerate(b, opt.degenerate_tol) : 0);
@@ -657,6 +711,7 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
       g.returned_bad = g.initial_bad;
     }
   };
+  res.projection_rows_kept = a.rows_kept + b.rows_kept;
   guarded(logA, a, init_AB, B, nb, res.guard_AB, res.map_AB, res.Y, res.last_AB);
   if (bij) guarded(logB, b, init_BA, A, na, res.guard_BA, res.map_BA, res.Ytilde, res.last_BA);
   res.time_total = seconds_since(t_start);

@@ -438,3 +438,26 @@ TEST(Elastic, FoldCountsMatchSurfaceDistortion) {
   EXPECT_EQ(c.flipped, d.flipped);
   EXPECT_EQ(c.degenerate, d.degenerate);
 }
+
+// Issue 20: the safe projection (ElasticOptions::safe_projection) keeps the rows that would
+// fold a mapped triangle at their previous value, so on the construction above (whose plain
+// first P step folds) no iterate folds a triangle.
+TEST(Elastic, SafeProjectionNeverFolds) {
+  const TriMesh A = bumpy_sphere(24, 36, 0.0, 0.0);
+  const TriMesh B = bumpy_sphere(3, 4, 0.0, 0.0);
+  const BarycentricMap initAB = radial_map(A, B), initBA = radial_map(B, A);
+  ElasticOptions o;
+  o.max_outer_iterations = 4;
+  o.keep_no_worse = false;
+  o.safe_projection = true;
+  const ElasticResult r = elastic_correspondence(A, B, initAB, initBA, o);
+  EXPECT_GT(r.projection_rows_kept, 0);
+  for (const auto& it : r.history) {
+    EXPECT_EQ(it.P_folds.bad(), 0);
+    EXPECT_EQ(it.Q_folds.bad(), 0);
+    EXPECT_TRUE(std::isfinite(it.energy));
+  }
+  o.safe_projection = false;
+  const ElasticResult plain = elastic_correspondence(A, B, initAB, initBA, o);
+  EXPECT_GT(plain.history.front().P_folds.bad(), 0);  // the plain argmin folds here
+}

@@ -44,6 +44,11 @@ struct ElasticOptions {
   // at gamma = 20 beta the first P step's R^6 closest point compares X with the chords
   // Y~ = Q X and collapses triangles (docs/methods.md).
   bool gamma_ramp = false;
+  // P / Q step that never folds a mapped triangle that was fine (issue 20, our addition): the
+  // projection's energy is a sum over rows, so rows that would flip or collapse a triangle
+  // keep their previous value and E still does not increase. Sec. 5.1's P step is the plain
+  // argmin (false).
+  bool safe_projection = false;
   int max_outer_iterations = 300; // Algorithm 1: K = 300
   // Algorithm 1 stop: |E_k - E_{k-1}| < energy_tol * |E_k|, tested once beta has reached
   // beta_end (before, E changes because beta does). 0 = always run K iterations.
@@ -134,6 +139,7 @@ struct ElasticResult {
   int degenerate_faces_final = 0;
   ElasticGuard guard_AB, guard_BA;   // which iterate each direction returns, and why
   BarycentricMap last_AB, last_BA;   // the last iterate, kept only when the guard returned another
+  long long projection_rows_kept = 0;  // rows the safe projection kept at their previous value
   // First collapses, per direction (AB: P and Y; BA: Q and Y~).
   ElasticCollapseEvent first_P_collapse, first_Y_collapse, first_Q_collapse, first_Yt_collapse;
 };
