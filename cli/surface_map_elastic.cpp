@@ -48,9 +48,9 @@ void add_elastic_options(CLI::App* app, ElasticCliOptions& o) {
                 "elastic: the Y-step line search never passes a triangle through zero area");
   app->add_flag("--elastic-gamma-ramp", o.gamma_ramp,
                 "elastic: ramp the reversibility weight gamma (Eq. 6) from 0 with beta's schedule");
-  app->add_flag("--elastic-safe-projection", o.safe_projection,
-                "elastic: P/Q steps keep the previous row of vertices whose new one would flip or "
-                "collapse a mapped triangle");
+  app->add_flag("--elastic-plain-projection", o.plain_projection,
+                "elastic: the P/Q steps of Sec. 5.1 as the plain closest point (default: rows that "
+                "would flip or collapse a mapped triangle keep their previous value)");
   app->add_flag("--elastic-keep-worse", o.keep_worse,
                 "elastic: return the last iterate even when it has more flipped or collapsed "
                 "triangles than the initial map (default: the collapse guard keeps the latest "
@@ -204,7 +204,7 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
   if (o.log_eps >= 0) eo.log_eps = o.log_eps;
   eo.keep_orientation = o.keep_orientation;
   eo.gamma_ramp = o.gamma_ramp;
-  eo.safe_projection = o.safe_projection;
+  eo.safe_projection = !o.plain_projection;
   eo.progress = make_progress(g);
   const ElasticResult r = elastic_correspondence(A, B, initAB, initBA, eo);
   if (!r.map_AB.bary.allFinite() || !r.Y.allFinite())

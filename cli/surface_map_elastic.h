@@ -22,7 +22,7 @@ struct ElasticCliOptions {
   double log_eps = -1;                   // Sec. 4.1 log threshold (default 1e-4; 0 = true barrier)
   bool keep_orientation = false;         // ElasticOptions::keep_orientation
   bool gamma_ramp = false;               // ElasticOptions::gamma_ramp
-  bool safe_projection = false;          // ElasticOptions::safe_projection
+  bool plain_projection = false;         // ElasticOptions::safe_projection = false
   bool keep_worse = false;               // turn the collapse guard off (ElasticOptions::keep_no_worse)
 };
 

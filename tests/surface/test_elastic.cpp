@@ -376,6 +376,7 @@ TEST(Elastic, CollapseGuardNeverReturnsAWorseMap) {
   const int bad0_BA = surface_distortion(B, A, initBA).flipped + surface_distortion(B, A, initBA).degenerate;
   ElasticOptions o;
   o.max_outer_iterations = 1;  // the collapse is in the first P step (later Y steps reopen it here)
+  o.safe_projection = false;   // the plain P step of Sec. 5.1, which folds here
   o.keep_no_worse = false;
   const ElasticResult raw = elastic_correspondence(A, B, initAB, initBA, o);
   auto bad = [](const TriMesh& S, const TriMesh& T, const BarycentricMap& P) {

@@ -46,9 +46,9 @@ struct ElasticOptions {
   bool gamma_ramp = false;
   // P / Q step that never folds a mapped triangle that was fine (issue 20, our addition): the
   // projection's energy is a sum over rows, so rows that would flip or collapse a triangle
-  // keep their previous value and E still does not increase. Sec. 5.1's P step is the plain
-  // argmin (false).
-  bool safe_projection = false;
+  // keep their previous value and E still does not increase. false = Sec. 5.1's P step, the
+  // plain argmin, whose R^6 closest points can collapse whole patches (docs/methods.md).
+  bool safe_projection = true;
   int max_outer_iterations = 300; // Algorithm 1: K = 300
   // Algorithm 1 stop: |E_k - E_{k-1}| < energy_tol * |E_k|, tested once beta has reached
   // beta_end (before, E changes because beta does). 0 = always run K iterations.
