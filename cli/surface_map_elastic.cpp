@@ -37,6 +37,24 @@ void add_elastic_options(CLI::App* app, ElasticCliOptions& o) {
                 "elastic: locally injective model E_inj (Eq. 4) instead of E_bij (Eq. 6)");
   app->add_flag("--elastic-partial", o.partial,
                 "elastic: partial matching (Sec. 6.2): no unit-area scaling");
+  app->add_option("--elastic-beta-start", o.beta_start,
+                  "elastic: start of the beta ramp (Sec. 5.2: 1e3, linearly to 2e5)")
+      ->check(non_negative());
+  app->add_option("--elastic-log-eps", o.log_eps,
+                  "elastic: -log det G is extended linearly below this (Sec. 4.1; default 1e-4; "
+                  "0 = an unbounded barrier)")
+      ->check(non_negative());
+  app->add_flag("--elastic-keep-orientation", o.keep_orientation,
+                "elastic: the Y-step line search never passes a triangle through zero area");
+  app->add_flag("--elastic-gamma-ramp", o.gamma_ramp,
+                "elastic: ramp the reversibility weight gamma (Eq. 6) from 0 with beta's schedule");
+  app->add_flag("--elastic-plain-projection", o.plain_projection,
+                "elastic: the P/Q steps of Sec. 5.1 as the plain closest point (default: rows that "
+                "would flip or collapse a mapped triangle keep their previous value)");
+  app->add_flag("--elastic-keep-worse", o.keep_worse,
+                "elastic: return the last iterate even when it has more flipped or collapsed "
+                "triangles than the initial map (default: the collapse guard keeps the latest "
+                "iterate that has no more, or the initial map; report.json: elastic.guard)");
   app->add_option("--truth", o.truth_ab,
                   "ground-truth map A->B (map file) for the geodesic error in report.json");
 }
@@ -181,6 +199,12 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
   eo.max_outer_iterations = o.iterations;
   eo.model = bij ? ElasticModel::Bijective : ElasticModel::Injective;
   eo.normalize_area = !o.partial;
+  eo.keep_no_worse = !o.keep_worse;
+  if (o.beta_start >= 0) eo.beta_start = std::min(o.beta_start, eo.beta_end);
+  if (o.log_eps >= 0) eo.log_eps = o.log_eps;
+  eo.keep_orientation = o.keep_orientation;
+  eo.gamma_ramp = o.gamma_ramp;
+  eo.safe_projection = !o.plain_projection;
   eo.progress = make_progress(g);
   const ElasticResult r = elastic_correspondence(A, B, initAB, initBA, eo);
   if (!r.map_AB.bary.allFinite() || !r.Y.allFinite())
@@ -207,7 +231,9 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
                           {"max_outer_iterations", eo.max_outer_iterations},
                           {"energy_tol", eo.energy_tol},
                           {"inner_max_iterations", eo.inner_max_iterations},
-                          {"inner_tol", eo.inner_tol}, {"unit_area", eo.normalize_area}};
+                          {"inner_tol", eo.inner_tol}, {"unit_area", eo.normalize_area},
+                          {"keep_orientation", eo.keep_orientation}, {"gamma_ramp", eo.gamma_ramp},
+                          {"safe_projection", eo.safe_projection}};
   // Energies per outer iteration, summarized: first, last, and at most 50 samples.
   nlohmann::json en;
   std::vector<double> E, ep, ed;
@@ -247,6 +273,52 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
                        {"time_per_iteration_deformation", r.time_deformation / K},
                        {"degenerate_faces_initial", r.degenerate_faces_initial},
                        {"degenerate_faces_final", r.degenerate_faces_final}};
+  // Issue 20: which iterate each direction returns (collapse guard), where triangles first
+  // collapsed (the map P / Q or the shell Y / Y~), and the counts per outer iteration.
+  auto guard_json = [&](const ElasticGuard& gd) {
+    const char* what = gd.returned == ElasticReturned::Last             ? "last iterate"
+                       : gd.returned == ElasticReturned::EarlierIterate ? "earlier iterate"
+                                                                        : "initial map";
+    return nlohmann::json{{"returned", what}, {"iteration", gd.iteration},
+                          {"initial_bad_triangles", gd.initial_bad},
+                          {"last_bad_triangles", gd.last_bad},
+                          {"returned_bad_triangles", gd.returned_bad}};
+  };
+  auto event_json = [&](const ElasticCollapseEvent& ev) {
+    if (ev.iteration == 0) return nlohmann::json(nullptr);
+    return nlohmann::json{{"iteration", ev.iteration}, {"faces", ev.faces},
+                          {"centroid", {ev.centroid(0), ev.centroid(1), ev.centroid(2)}},
+                          {"mismatch_at_faces", ev.mismatch_at_faces},
+                          {"mismatch_mean", ev.mismatch_mean}};
+  };
+  auto first_json = [&](const ElasticCollapseEvent& m, const ElasticCollapseEvent& y) {
+    const int im = m.iteration, iy = y.iteration;
+    const char* who = im == 0 && iy == 0 ? "none"
+                      : iy == 0 || (im > 0 && im < iy) ? "map"
+                      : im == 0 || iy < im ? "shell" : "both";
+    return nlohmann::json{{"first", who}, {"map", event_json(m)}, {"shell", event_json(y)}};
+  };
+  auto folds_json = [&](auto get) {
+    nlohmann::json a = nlohmann::json::array();
+    for (const auto& it : r.history) {
+      const FoldCounts& c = get(it);
+      a.push_back({c.flipped, c.degenerate});
+    }
+    return a;
+  };
+  report["elastic"]["guard"]["enabled"] = eo.keep_no_worse;
+  report["elastic"]["projection_rows_kept"] = r.projection_rows_kept;
+  report["elastic"]["guard"]["AB"] = guard_json(r.guard_AB);
+  report["elastic"]["first_collapse"]["AB"] = first_json(r.first_P_collapse, r.first_Y_collapse);
+  report["elastic"]["folds_per_iteration"]["P"] = folds_json([](const ElasticIterate& i) -> const FoldCounts& { return i.P_folds; });
+  report["elastic"]["folds_per_iteration"]["Y"] = folds_json([](const ElasticIterate& i) -> const FoldCounts& { return i.Y_folds; });
+  if (bij) {
+    report["elastic"]["guard"]["BA"] = guard_json(r.guard_BA);
+    report["elastic"]["first_collapse"]["BA"] = first_json(r.first_Q_collapse, r.first_Yt_collapse);
+    report["elastic"]["folds_per_iteration"]["Q"] = folds_json([](const ElasticIterate& i) -> const FoldCounts& { return i.Q_folds; });
+    report["elastic"]["folds_per_iteration"]["Yt"] = folds_json([](const ElasticIterate& i) -> const FoldCounts& { return i.Yt_folds; });
+  }
+  report["elastic"]["folds_per_iteration"]["format"] = "[flipped, collapsed] after each outer iteration";
   nlohmann::json metrics;
   metrics["initial"]["AB"] = surface_map_metrics_json(A, B, initAB, bij ? &initBA : nullptr,
                                              has_truth ? &truth : nullptr);
@@ -256,7 +328,33 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
     metrics["initial"]["BA"] = surface_map_metrics_json(B, A, initBA, &initAB, nullptr);
     metrics["final"]["BA"] = surface_map_metrics_json(B, A, r.map_BA, &r.map_AB, nullptr);
   }
+  // The last iterate too when the guard returned another map (what the guard avoided).
+  if (r.last_AB.size() > 0)
+    metrics["last_iterate"]["AB"] = surface_map_metrics_json(A, B, r.last_AB, nullptr, has_truth ? &truth : nullptr);
+  if (bij && r.last_BA.size() > 0)
+    metrics["last_iterate"]["BA"] = surface_map_metrics_json(B, A, r.last_BA, nullptr, nullptr);
   report["metrics"] = metrics;
+  // Per stage (initial map -> elastic), per direction: did the map improve? Improved = no more
+  // flipped or collapsed triangles and a lower mean conformal distortion (and, with --truth,
+  // no larger geodesic error).
+  auto bad = [&](const char* when, const char* dir) {
+    const nlohmann::json& m = metrics[when][dir];
+    return m["flipped_triangles"].get<int>() + m["degenerate_triangles"].get<int>();
+  };
+  for (const char* dir : {"AB", "BA"}) {
+    if (!metrics["final"].contains(dir)) continue;
+    const nlohmann::json &mi = metrics["initial"][dir], &mf = metrics["final"][dir];
+    bool improved = bad("final", dir) <= bad("initial", dir) &&
+                    mf["conformal_distortion_mean"].get<double>() < mi["conformal_distortion_mean"].get<double>();
+    if (mf.contains("geodesic_error_mean"))
+      improved = improved && mf["geodesic_error_mean"].get<double>() <= mi["geodesic_error_mean"].get<double>();
+    const ElasticGuard& gd = std::string(dir) == "AB" ? r.guard_AB : r.guard_BA;
+    report["stages"]["elastic"][dir] = {
+        {"improved", improved},
+        {"bad_triangles", {{"initial", bad("initial", dir)}, {"final", bad("final", dir)}}},
+        {"conformal_distortion_mean", {{"initial", mi["conformal_distortion_mean"]}, {"final", mf["conformal_distortion_mean"]}}},
+        {"returned", guard_json(gd)["returned"]}};
+  }
 
   // Outputs.
   timer.start("write");
@@ -279,17 +377,23 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
               std::to_string(timer.total()) + " s; wrote " + out.final_path());
   // The energy can go down while the maps get worse where the deformation Y does not reach
   // the target (thin parts, far-from-isometric pairs): the projections P, Q then fold or
-  // collapse triangles. Say so when the final maps have more of them than the initial ones.
-  auto bad = [&](const char* when, const char* dir) {
-    const nlohmann::json& m = metrics[when][dir];
-    return m["flipped_triangles"].get<int>() + m["degenerate_triangles"].get<int>();
-  };
+  // collapse triangles. The collapse guard (ElasticOptions::keep_no_worse) then returns an
+  // earlier iterate or the initial map; say which.
   for (const char* dir : {"AB", "BA"}) {
-    if (!metrics["final"].contains(dir) || bad("final", dir) <= bad("initial", dir)) continue;
-    info(g, std::string("elastic: warning: the final ") + dir + " map has " + std::to_string(bad("final", dir)) +
-                " flipped or collapsed triangles against " + std::to_string(bad("initial", dir)) +
-                " in the initial one (report.json: metrics); a different bending weight (--elastic-eta, --elastic-preset) or a better "
-                "initial map may help");
+    if (!metrics["final"].contains(dir)) continue;
+    const ElasticGuard& gd = std::string(dir) == "AB" ? r.guard_AB : r.guard_BA;
+    if (gd.last_bad <= gd.initial_bad) continue;
+    const std::string head = std::string("elastic: the last ") + dir + " iterate has " +
+                             std::to_string(gd.last_bad) + " flipped or collapsed triangles against " +
+                             std::to_string(gd.initial_bad) + " in the initial map; ";
+    if (gd.returned == ElasticReturned::EarlierIterate)
+      info(g, head + "returning outer iteration " + std::to_string(gd.iteration) + " instead (" +
+                  std::to_string(gd.returned_bad) + "; report.json: elastic.guard)");
+    else if (gd.returned == ElasticReturned::Initial)
+      info(g, head + "returning the initial map instead (report.json: elastic.guard)");
+    else
+      info(g, "elastic: warning: " + head.substr(std::string("elastic: ").size()) + "returned anyway (--elastic-keep-worse); a different bending weight "
+                  "(--elastic-eta, --elastic-preset) or a better initial map may help");
   }
   return 0;
 }

@@ -18,6 +18,12 @@ struct ElasticCliOptions {
   bool injective = false;                // E_inj (Eq. 4) instead of E_bij (Eq. 6)
   bool partial = false;                  // Sec. 6.2: no unit-area scaling
   std::string truth_ab;                  // ground truth A->B (map file) for the geodesic error
+  double beta_start = -1;                // Sec. 5.2 beta ramp start (default: ElasticOptions, 1e3)
+  double log_eps = -1;                   // Sec. 4.1 log threshold (default 1e-4; 0 = true barrier)
+  bool keep_orientation = false;         // ElasticOptions::keep_orientation
+  bool gamma_ramp = false;               // ElasticOptions::gamma_ramp
+  bool plain_projection = false;         // ElasticOptions::safe_projection = false
+  bool keep_worse = false;               // turn the collapse guard off (ElasticOptions::keep_no_worse)
 };
 
 // A map file that must map n_source vertices into m_target triangles (exit 2 otherwise).
@@ -30,7 +36,7 @@ nlohmann::json surface_map_metrics_json(const TriMesh& S, const TriMesh& T, cons
                                         const BarycentricMap* Q, const BarycentricMap* truth);
 
 // Adds --elastic-preset, --elastic-eta, --elastic-alpha, --elastic-iterations,
-// --elastic-injective, --elastic-partial, --truth to the subcommand.
+// --elastic-injective, --elastic-partial, --elastic-keep-worse, --truth to the subcommand.
 void add_elastic_options(CLI::App* app, ElasticCliOptions& o);
 
 struct ElasticMapArgs {

@@ -85,6 +85,36 @@ Eigen::VectorXd area_distortion(const Eigen::MatrixXd& X, const Eigen::MatrixXd&
   return out;
 }
 
+FoldCounts fold_counts(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F, const Eigen::MatrixXd& Y,
+                       const Eigen::MatrixXd& Nt, const Eigen::VectorXi& elem, double degenerate_tol,
+                       std::vector<unsigned char>* faces) {
+  const int m = int(F.rows());
+  if (faces) faces->assign(m, 0);
+  FoldCounts c;
+  const double log_tol = std::log(degenerate_tol);
+  for (int f = 0; f < m; ++f) {
+    const Eigen::Vector3d x0 = X.row(F(f, 0)), y0 = Y.row(F(f, 0)), y1 = Y.row(F(f, 1)),
+                          y2 = Y.row(F(f, 2));
+    const double a0 = (Eigen::Vector3d(X.row(F(f, 1))) - x0)
+                          .cross(Eigen::Vector3d(X.row(F(f, 2))) - x0)
+                          .norm();
+    const Eigen::Vector3d n = (y1 - y0).cross(y2 - y0);
+    // the same expression as area_distortion, so that the counts agree bit for bit
+    if (!(std::log(n.norm() / a0) > log_tol)) {
+      ++c.degenerate;
+      if (faces) (*faces)[f] = 2;
+      continue;
+    }
+    Eigen::Vector3d nt = Eigen::Vector3d::Zero();
+    for (int j = 0; j < 3; ++j) nt += Nt.row(elem(F(f, j))).transpose();
+    if (n.dot(nt) < 0) {
+      ++c.flipped;
+      if (faces) (*faces)[f] = 1;
+    }
+  }
+  return c;
+}
+
 SurfaceDistortion surface_distortion(const TriMesh& S, const TriMesh& T, const BarycentricMap& P,
                                      const SurfaceDistortionOptions& opt) {
   check_map(S, T, P, "surface_distortion: map");
@@ -100,22 +130,15 @@ SurfaceDistortion surface_distortion(const TriMesh& S, const TriMesh& T, const B
   d.area = area_distortion(X, Y, S.F);
   const double lo = std::log(opt.min_area_ratio), hi = -lo;
   // target surface normal at a mapped point: the normal of the face it lies in
-  const Eigen::MatrixXd Nt = face_normals(Xt, T.F);
+  const FoldCounts folds = fold_counts(X, S.F, Y, face_normals(Xt, T.F), P.elem, opt.degenerate_tol);
+  d.flipped = folds.flipped;
+  d.degenerate = folds.degenerate;
   for (int f = 0; f < m; ++f) {
     double& c = d.conformal(f);
     if (!(c <= opt.conformal_cap)) c = opt.conformal_cap;  // also NaN (degenerate source)
     double& a = d.area(f);
-    const bool collapsed = !(a > std::log(opt.degenerate_tol));
-    if (collapsed) ++d.degenerate;
     if (!(a >= lo)) a = lo;
     if (a > hi) a = hi;
-    if (!collapsed) {
-      const Eigen::Vector3d y0 = Y.row(S.F(f, 0)), y1 = Y.row(S.F(f, 1)), y2 = Y.row(S.F(f, 2));
-      const Eigen::Vector3d n = (y1 - y0).cross(y2 - y0);
-      Eigen::Vector3d nt = Eigen::Vector3d::Zero();
-      for (int j = 0; j < 3; ++j) nt += Nt.row(P.elem(S.F(f, j))).transpose();
-      if (n.dot(nt) < 0) ++d.flipped;
-    }
   }
   if (m > 0) {
     d.conformal_mean = d.conformal.mean();

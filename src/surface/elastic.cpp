@@ -120,13 +120,65 @@ struct Side {
   Eigen::MatrixXd projA, projB;
   std::vector<ClosestPointResult> proj;
   ElasticLbfgs lbfgs;           // Y-step L-BFGS buffers and (warm-start) curvature pairs
+  // safe projection (ElasticOptions::safe_projection): the previous P, the target's unit face
+  // normals, per-face flags, and how many rows kept their previous value so far
+  BarycentricMap P_prev;
+  Eigen::MatrixXd target_normals;
+  std::vector<unsigned char> fold_prev;
+  long long rows_kept = 0;
 };
+
+// Mapped triangle f of the source under P is folded: collapsed (area below 1e-6 of its rest
+// area) or flipped (normal against the target's at its corners' images).
+bool mapped_face_folds(const Side& s, const Side& t, const BarycentricMap& P, int f) {
+  Eigen::Vector3d y[3];
+  Eigen::Vector3d nt = Eigen::Vector3d::Zero();
+  for (int j = 0; j < 3; ++j) {
+    const int v = s.F(f, j), e = P.elem(v);
+    y[j] = (P.bary(v, 0) * t.X.row(t.F(e, 0)) + P.bary(v, 1) * t.X.row(t.F(e, 1)) +
+            P.bary(v, 2) * t.X.row(t.F(e, 2))).transpose();
+    nt += s.target_normals.row(e).transpose();
+  }
+  const Eigen::Vector3d x0 = s.X.row(s.F(f, 0));
+  const double nref = (Eigen::Vector3d(s.X.row(s.F(f, 1))) - x0).cross(Eigen::Vector3d(s.X.row(s.F(f, 2))) - x0).norm();
+  const Eigen::Vector3d n = (y[1] - y[0]).cross(y[2] - y[0]);
+  return !(n.norm() > 1e-6 * nref) || n.dot(nt) < 0;
+}
+
+// Issue 20 (ElasticOptions::safe_projection). The P step's energy is a sum over rows, so a
+// row may keep its previous value and E still does not increase (the previous P was the one
+// the last Y step was computed with). Rows of corners of a mapped triangle that the new rows
+// fold and the previous ones did not keep their previous value; repeated until no such
+// triangle is left (rows are only reverted, in face order: deterministic). Returns the count.
+int keep_rows_that_fold(Side& s, const Side& t) {
+  const int m = int(s.F.rows());
+  if (s.target_normals.rows() != t.F.rows()) s.target_normals = face_normals(t.X, t.F);
+  s.fold_prev.resize(m);
+  for (int f = 0; f < m; ++f) s.fold_prev[f] = mapped_face_folds(s, t, s.P_prev, f);
+  int kept = 0;
+  for (bool changed = true; changed;) {
+    changed = false;
+    for (int f = 0; f < m; ++f) {
+      if (s.fold_prev[f] || !mapped_face_folds(s, t, s.P, f)) continue;
+      for (int j = 0; j < 3; ++j) {
+        const int v = s.F(f, j);
+        if (s.P.elem(v) == s.P_prev.elem(v) && s.P.bary.row(v) == s.P_prev.bary.row(v)) continue;
+        s.P.elem(v) = s.P_prev.elem(v);
+        s.P.bary.row(v) = s.P_prev.bary.row(v);
+        ++kept;
+        changed = true;
+      }
+    }
+  }
+  return kept;
+}
 
 // P step: rows of B = [sqrt(beta) Y, sqrt(gamma) X] onto the target triangulation with
 // vertex coordinates A = [sqrt(beta) X~, sqrt(gamma) Y~] (Sec. 5.1 "Mapping optimization").
 // The BVH is built once and refit afterwards; every query starts from the previous face
 // of that vertex as a hint (the same exact closest point, fewer boxes visited).
-void projection_step(Side& s, const Side& t, double beta, double gamma, bool bijective) {
+void projection_step(Side& s, const Side& t, double beta, double gamma, bool bijective,
+                     bool safe) {
   const int n = int(s.X.rows());
   if (int(s.proj.size()) != n) {
     s.proj.assign(n, ClosestPointResult{});
@@ -159,6 +211,7 @@ void projection_step(Side& s, const Side& t, double beta, double gamma, bool bij
     for (int i = 0; i < n; ++i)
       s.proj[i] = s.bvh3.query(ClosestPoint3::Point(s.Y.row(i).transpose()), s.proj[i].elem);
   }
+  if (safe) s.P_prev = s.P;
   for (int i = 0; i < n; ++i) {
     if (s.proj[i].elem < 0) {  // keep the previous row (cannot happen on valid input)
       s.proj[i].elem = s.P.elem(i);
@@ -168,6 +221,7 @@ void projection_step(Side& s, const Side& t, double beta, double gamma, bool bij
     s.P.bary.row(i) = s.proj[i].bary.head<3>().transpose();
   }
   sanitize(s.P);
+  if (safe) s.rows_kept += keep_rows_that_fold(s, t);
   apply_map(s.P, t.F, t.X, s.PXt);
 }
 
@@ -242,6 +296,22 @@ class DeformationObjective {
   bool bij_;
 };
 
+// True when some triangle of Y that is not collapsed at y0 has, at y1, a normal turned by
+// more than 90 degrees from its normal at y0: on the segment y0 -> y1 its area (nearly)
+// vanished, a point the unbounded membrane barrier (log_eps = 0) must not be stepped over.
+bool turns_a_triangle(const Eigen::MatrixXi& F, const double* y0, const double* y1) {
+  for (int f = 0; f < F.rows(); ++f) {
+    const int i = 3 * F(f, 0), j = 3 * F(f, 1), k = 3 * F(f, 2);
+    const Eigen::Vector3d a0(y0[i], y0[i + 1], y0[i + 2]), b0(y0[j], y0[j + 1], y0[j + 2]),
+        c0(y0[k], y0[k + 1], y0[k + 2]);
+    const Eigen::Vector3d a1(y1[i], y1[i + 1], y1[i + 2]), b1(y1[j], y1[j + 1], y1[j + 2]),
+        c1(y1[k], y1[k + 1], y1[k + 2]);
+    const Eigen::Vector3d n0 = (b0 - a0).cross(c0 - a0), n1 = (b1 - a1).cross(c1 - a1);
+    if (n0.squaredNorm() > 0 && !(n0.dot(n1) > 0)) return true;
+  }
+  return false;
+}
+
 int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bijective,
                      const ElasticOptions& opt, EnergyParts& parts, int& evaluations) {
   const int n = int(s.X.rows());
@@ -299,6 +369,10 @@ int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bij
       for (int k = 0; k < 40 && gd < 0; ++k) {
         if (k > 0 && alpha * -gd < min_decrease) break;
         L.x_new.noalias() = L.x + alpha * L.d;
+        if (opt.keep_orientation && turns_a_triangle(s.F, L.x.data(), L.x_new.data())) {
+          alpha *= 0.5;  // the step would pass a triangle through zero area: shorten it
+          continue;
+        }
         f_new = obj(L.x_new, L.g_new);
         ++evaluations;
         if (std::isfinite(f_new) && f_new <= f + c1 * alpha * gd) {
@@ -397,6 +471,70 @@ int count_degenerate(const Side& s, double tol) {
   return c;
 }
 
+// Issue 20 bookkeeping for one direction (A -> B: P and Y; B -> A: Q and Y~): fold counts of
+// the map and of the shell on unit-area copies, the first collapse of each, and the iterate
+// the collapse guard would return.
+struct DirectionLog {
+  const TriMesh* S = nullptr;      // source (input coordinates, for the event centroid)
+  Eigen::MatrixXd Xs, Xt, Nt;      // unit-area source, target, and the target's unit face normals
+  Eigen::MatrixXi Ft;
+  Normalization to_unit_target;    // working frame of Y -> unit-area target frame (partial mode)
+  bool working_is_unit = true;
+  FoldCounts map0, shell0;         // at the start
+  std::vector<unsigned char> map0_faces, shell0_faces, faces;
+  int keep_iteration = -1;         // latest iterate with no more bad triangles than the start
+  BarycentricMap keep_P;
+  Eigen::MatrixXd keep_Y;          // in the working frame
+
+  FoldCounts map_folds(const BarycentricMap& P, std::vector<unsigned char>* out) const {
+    return fold_counts(Xs, S->F, map_positions(P, Xt, Ft), Nt, P.elem,
+                       SurfaceDistortionOptions{}.degenerate_tol, out);
+  }
+  FoldCounts shell_folds(const RowMat3& Y, const BarycentricMap& P,
+                         std::vector<unsigned char>* out) const {
+    const Eigen::MatrixXd Yu = working_is_unit ? Eigen::MatrixXd(Y) : to_unit_target.apply(Eigen::MatrixXd(Y));
+    return fold_counts(Xs, S->F, Yu, Nt, P.elem, SurfaceDistortionOptions{}.degenerate_tol, out);
+  }
+  // Faces bad now and fine at the start -> the event (iteration k, 1-based).
+  void record(ElasticCollapseEvent& ev, int k, const std::vector<unsigned char>& now,
+              const std::vector<unsigned char>& start, const Side& s) const {
+    ev.iteration = k;
+    ev.faces.clear();
+    double w = 0;
+    Eigen::RowVector3d c = Eigen::RowVector3d::Zero();
+    Eigen::VectorXd dist(s.X.rows());
+    for (int i = 0; i < s.X.rows(); ++i) dist(i) = (s.Y.row(i) - s.PXt.row(i)).norm();
+    double dsum = 0;
+    int dcount = 0;
+    for (int f = 0; f < int(now.size()); ++f) {
+      if (!now[f] || start[f]) continue;
+      if (ev.faces.size() < 64) ev.faces.push_back(f);
+      const Eigen::RowVector3d p0 = S->V.row(S->F(f, 0)), p1 = S->V.row(S->F(f, 1)),
+                               p2 = S->V.row(S->F(f, 2));
+      const double a = 0.5 * (p1 - p0).cross(p2 - p0).norm();
+      c += a * (p0 + p1 + p2) / 3.0;
+      w += a;
+      for (int j = 0; j < 3; ++j) dsum += dist(S->F(f, j)), ++dcount;
+    }
+    ev.centroid = w > 0 ? Eigen::RowVector3d(c / w) : c;
+    ev.mismatch_at_faces = dcount ? dsum / dcount : 0;
+    ev.mismatch_mean = dist.size() ? dist.mean() : 0;
+  }
+  // After outer iteration k (1-based): counts into it, first events, guard snapshot.
+  void after_iteration(const Side& s, int k, bool keep, FoldCounts& map_c, FoldCounts& shell_c,
+                       ElasticCollapseEvent& map_ev, ElasticCollapseEvent& shell_ev) {
+    map_c = map_folds(s.P, &faces);
+    if (map_ev.iteration == 0 && map_c.bad() > map0.bad()) record(map_ev, k, faces, map0_faces, s);
+    if (keep && map_c.bad() <= map0.bad()) {
+      keep_iteration = k;
+      keep_P = s.P;
+      keep_Y = s.Y;
+    }
+    shell_c = shell_folds(s.Y, s.P, &faces);
+    if (shell_ev.iteration == 0 && shell_c.bad() > shell0.bad()) record(shell_ev, k, faces, shell0_faces, s);
+  }
+};
+
 }  // namespace
 
 ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
@@ -457,27 +595,52 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
       count_degenerate(a, opt.degenerate_tol) + (bij ? count_degenerate(b, opt.degenerate_tol) : 0);
   unstick_collapsed(a);
   if (bij) unstick_collapsed(b);
+
+  // Issue 20: fold counts per outer iteration, first collapses, and the collapse guard. The
+  // counts are taken on unit-area copies so that they are the ones report.json shows.
+  DirectionLog logA, logB;
+  {
+    const Normalization ua = unit_area_normalization(A), ub = unit_area_normalization(B);
+    const Eigen::MatrixXd XA = ua.apply(A.V), XB = ub.apply(B.V);
+    const Eigen::MatrixXd NA = face_normals(XA, A.F), NB = face_normals(XB, B.F);
+    auto setup = [&](DirectionLog& L, const TriMesh& S, const Eigen::MatrixXd& Xs,
+                     const Eigen::MatrixXd& Xt, const Eigen::MatrixXi& Ft, const Eigen::MatrixXd& Nt,
+                     const Normalization& ut, const BarycentricMap& init, const Side& side) {
+      L.S = &S;
+      L.Xs = Xs;
+      L.Xt = Xt;
+      L.Ft = Ft;
+      L.Nt = Nt;
+      L.to_unit_target = ut;
+      L.working_is_unit = opt.normalize_area;
+      L.map0 = L.map_folds(init, &L.map0_faces);  // the user's map, as the CLI reports it
+      L.shell0 = L.shell_folds(side.Y, side.P, &L.shell0_faces);
+    };
+    setup(logA, A, XA, XB, B.F, NB, ub, init_AB, a);
+    if (bij) setup(logB, B, XB, XA, A.F, NA, ua, init_BA, b);
+  }
   res.time_setup = seconds_since(t_start);
 
-  const double gamma = opt.gamma * wscale;
+  const double gamma_full = opt.gamma * wscale;
   double E_prev = 0;
   const int K = opt.max_outer_iterations;
   for (int k = 0; k < K; ++k) {
     const int ramp = std::max(1, opt.beta_ramp_iterations);
     const double frac = std::min(1.0, double(k) / double(ramp));
     const double beta = (opt.beta_start + (opt.beta_end - opt.beta_start) * frac) * wscale;
+    const double gamma = opt.gamma_ramp ? gamma_full * frac : gamma_full;
     ElasticIterate it;
     it.beta = beta;
     EnergyParts pa, pb;
     auto t0 = Clock::now();
-    projection_step(a, b, beta, gamma, bij);  // P step
+    projection_step(a, b, beta, gamma, bij, opt.safe_projection);  // P step
     it.time_projection += seconds_since(t0);
     t0 = Clock::now();
     it.inner_iterations += deformation_step(a, b, beta, gamma, bij, opt, pa, it.inner_evaluations);  // Y step
     it.time_deformation += seconds_since(t0);
     if (bij) {
       t0 = Clock::now();
-      projection_step(b, a, beta, gamma, bij);  // Q step
+      projection_step(b, a, beta, gamma, bij, opt.safe_projection);  // Q step
       it.time_projection += seconds_since(t0);
       t0 = Clock::now();
       it.inner_iterations += deformation_step(b, a, beta, gamma, bij, opt, pb, it.inner_evaluations);  // Y~ step
@@ -497,6 +660,11 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
       it.mismatch = pa.mismatch;
     }
     it.energy = it.deformation + it.mismatch + it.reversibility;
+    logA.after_iteration(a, k + 1, opt.keep_no_worse, it.P_folds, it.Y_folds, res.first_P_collapse,
+                         res.first_Y_collapse);
+    if (bij)
+      logB.after_iteration(b, k + 1, opt.keep_no_worse, it.Q_folds, it.Yt_folds, res.first_Q_collapse,
+                           res.first_Yt_collapse);
     res.time_projection += it.time_projection;
     res.time_deformation += it.time_deformation;
     res.history.push_back(it);
@@ -510,17 +678,42 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
     E_prev = it.energy;
   }
   if (K == 0) {  // no iterations: the initial maps, projected once
-    projection_step(a, b, opt.beta_start * wscale, gamma, bij);
-    if (bij) projection_step(b, a, opt.beta_start * wscale, gamma, bij);
+    projection_step(a, b, opt.beta_start * wscale, opt.gamma_ramp ? 0.0 : gamma_full, bij, opt.safe_projection);
+    if (bij) projection_step(b, a, opt.beta_start * wscale, opt.gamma_ramp ? 0.0 : gamma_full, bij, opt.safe_projection);
   }
   res.degenerate_faces_final =
       count_degenerate(a, opt.degenerate_tol) + (bij ? count_degenerate(b, opt.degenerate_tol) : 0);
-  res.map_AB = a.P;
-  res.Y = nb.undo(Eigen::MatrixXd(a.Y));
-  if (bij) {
-    res.map_BA = b.P;
-    res.Ytilde = na.undo(Eigen::MatrixXd(b.Y));
-  }
+  // Collapse guard: per direction the last iterate, or the latest one with no more flipped or
+  // collapsed triangles than the start, or the start (ElasticOptions::keep_no_worse).
+  auto guarded = [&](const DirectionLog& L, const Side& s, const BarycentricMap& init,
+                     const TriMesh& T, const Normalization& nt, ElasticGuard& g,
+                     BarycentricMap& P_out, Eigen::MatrixXd& Y_out, BarycentricMap& last_out) {
+    g.initial_bad = L.map0.bad();
+    g.last_bad = L.map_folds(s.P, nullptr).bad();
+    g.iteration = res.outer_iterations;
+    g.returned = ElasticReturned::Last;
+    g.returned_bad = g.last_bad;
+    P_out = s.P;
+    Y_out = nt.undo(Eigen::MatrixXd(s.Y));
+    if (!opt.keep_no_worse || g.last_bad <= g.initial_bad) return;
+    last_out = s.P;
+    if (L.keep_iteration > 0) {
+      g.returned = ElasticReturned::EarlierIterate;
+      g.iteration = L.keep_iteration;
+      P_out = L.keep_P;
+      Y_out = nt.undo(L.keep_Y);
+      g.returned_bad = L.map_folds(P_out, nullptr).bad();
+    } else {
+      g.returned = ElasticReturned::Initial;
+      g.iteration = 0;
+      P_out = init;
+      Y_out = map_positions(init, T.V, T.F);
+      g.returned_bad = g.initial_bad;
+    }
+  };
+  res.projection_rows_kept = a.rows_kept + b.rows_kept;
+  guarded(logA, a, init_AB, B, nb, res.guard_AB, res.map_AB, res.Y, res.last_AB);
+  if (bij) guarded(logB, b, init_BA, A, na, res.guard_BA, res.map_BA, res.Ytilde, res.last_BA);
   res.time_total = seconds_since(t_start);
   return res;
 }

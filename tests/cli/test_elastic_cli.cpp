@@ -57,6 +57,25 @@ TEST(ElasticCli, SymmetricRunWritesOutputsAndEvaluateReportsSec61Metrics) {
   }
   EXPECT_LT(i1["conformal_distortion_mean"].get<double>(), i0["conformal_distortion_mean"].get<double>());
   EXPECT_LT(i1["conformal_distortion_mean"].get<double>(), 2.0);
+  // Issue 20: the collapse guard, where triangles first collapsed, the counts per outer
+  // iteration, and per stage whether the map improved; never more flipped or collapsed
+  // triangles than the initial map.
+  for (const char* dir : {"AB", "BA"}) {
+    const auto& gd = r["elastic"]["guard"][dir];
+    ASSERT_TRUE(gd.is_object()) << dir;
+    EXPECT_LE(gd["returned_bad_triangles"].get<int>(), gd["initial_bad_triangles"].get<int>()) << dir;
+    const auto& mi = r["metrics"]["initial"][dir];
+    const auto& mf = r["metrics"]["final"][dir];
+    EXPECT_LE(mf["flipped_triangles"].get<int>() + mf["degenerate_triangles"].get<int>(),
+              mi["flipped_triangles"].get<int>() + mi["degenerate_triangles"].get<int>()) << dir;
+    EXPECT_EQ(gd["returned_bad_triangles"].get<int>(),
+              mf["flipped_triangles"].get<int>() + mf["degenerate_triangles"].get<int>()) << dir;
+    EXPECT_TRUE(r["stages"]["elastic"][dir]["improved"].is_boolean()) << dir;
+    EXPECT_TRUE(r["elastic"]["first_collapse"][dir].contains("first")) << dir;
+  }
+  EXPECT_TRUE(r["elastic"]["guard"]["enabled"].get<bool>());
+  EXPECT_EQ(r["elastic"]["folds_per_iteration"]["P"].size(), 60u);
+  EXPECT_EQ(r["elastic"]["folds_per_iteration"]["Yt"].size(), 60u);
   EXPECT_LT(i1["area_distortion_mean_abs"].get<double>(), 1.0);
   EXPECT_LT(i1["reversibility"].get<double>(), 0.1);
   EXPECT_LT(i1["geodesic_error_mean"].get<double>(), 1.5 * i0["geodesic_error_mean"].get<double>() + 0.01);

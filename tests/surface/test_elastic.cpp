@@ -9,6 +9,8 @@
 #include "shapemap/surface/elastic.h"
 #include "shapemap/surface/shell_energy.h"
 
+#include <Eigen/Dense>
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 #include <omp.h>
 #include <functional>
@@ -323,4 +325,140 @@ TEST(Elastic, BendingWeightFollowsTheFlipsOfTheInitialMaps) {
   EXPECT_EQ(c.flipped, 0);
   EXPECT_GT(c.degenerate, 0);
   EXPECT_EQ(c.eta, 0.002);
+}
+
+namespace {
+
+// Radial map of the vertices of S onto the star-shaped T (around the origin): each vertex's
+// ray hits one face of T (brute force; the test meshes are small).
+BarycentricMap radial_map(const TriMesh& S, const TriMesh& T) {
+  BarycentricMap m;
+  m.elem.resize(S.num_vertices());
+  m.bary.resize(S.num_vertices(), 3);
+  for (int i = 0; i < S.num_vertices(); ++i) {
+    const Eigen::Vector3d d = S.V.row(i).normalized().transpose();
+    double best = -1;
+    for (int f = 0; f < T.num_faces(); ++f) {
+      const Eigen::Vector3d a = T.V.row(T.F(f, 0)), b = T.V.row(T.F(f, 1)), c = T.V.row(T.F(f, 2));
+      Eigen::Matrix3d M;
+      M << d, a - b, a - c;  // t d = a + u (b - a) + v (c - a)
+      const Eigen::Vector3d x = M.fullPivLu().solve(a);
+      const double t = x(0), u = x(1), v = x(2);
+      const double lo = std::min({1 - u - v, u, v});
+      if (t > 0 && lo > best) {
+        best = lo;
+        m.elem(i) = f;
+        m.bary.row(i) << 1 - u - v, u, v;
+      }
+    }
+    m.bary.row(i) = m.bary.row(i).cwiseMax(0.0);
+    m.bary.row(i) /= m.bary.row(i).sum();
+  }
+  return m;
+}
+
+}  // namespace
+
+// Issue 20: a fine sphere A and a very coarse one B (an octahedron-like polyhedron), with
+// clean radial maps both ways. In the P step's closest point in R^6 (Sec. 5.1,
+// [sqrt(beta) Y, sqrt(gamma) X] against [sqrt(beta) X~, sqrt(gamma) Y~]) the reversibility
+// coordinates compare A's vertices with Y~ = Q X, B's long triangles as chords inside A's
+// sphere: A's vertices lie outside them and project onto their edges and corners, so P
+// collapses triangles in its first iteration, as on SHREC'07 airplane -> bird (where B's
+// triangles are long on A because BIM compresses A there). The collapse guard returns an
+// iterate (or the start) with no more flipped or collapsed triangles than the start, per
+// direction, and says which.
+TEST(Elastic, CollapseGuardNeverReturnsAWorseMap) {
+  const TriMesh A = bumpy_sphere(24, 36, 0.0, 0.0);
+  const TriMesh B = bumpy_sphere(3, 4, 0.0, 0.0);
+  const BarycentricMap initAB = radial_map(A, B), initBA = radial_map(B, A);
+  const int bad0_AB = surface_distortion(A, B, initAB).flipped + surface_distortion(A, B, initAB).degenerate;
+  const int bad0_BA = surface_distortion(B, A, initBA).flipped + surface_distortion(B, A, initBA).degenerate;
+  ElasticOptions o;
+  o.max_outer_iterations = 1;  // the collapse is in the first P step (later Y steps reopen it here)
+  o.safe_projection = false;   // the plain P step of Sec. 5.1, which folds here
+  o.keep_no_worse = false;
+  const ElasticResult raw = elastic_correspondence(A, B, initAB, initBA, o);
+  auto bad = [](const TriMesh& S, const TriMesh& T, const BarycentricMap& P) {
+    const SurfaceDistortion d = surface_distortion(S, T, P);
+    return d.flipped + d.degenerate;
+  };
+  const int raw_AB = bad(A, B, raw.map_AB), raw_BA = bad(B, A, raw.map_BA);
+  // the construction does make the last iterate worse (else this test checks nothing)
+  ASSERT_GT(raw_AB + raw_BA, bad0_AB + bad0_BA) << raw_AB << " " << raw_BA;
+  EXPECT_EQ(raw.guard_AB.returned, ElasticReturned::Last);
+  EXPECT_EQ(raw.guard_AB.last_bad, raw_AB);
+  EXPECT_EQ(raw.guard_AB.initial_bad, bad0_AB);
+  // the per-iteration log: counts after the last iteration are those of the last maps
+  EXPECT_EQ(raw.history.back().P_folds.bad(), raw_AB);
+  EXPECT_EQ(raw.history.back().Q_folds.bad(), raw_BA);
+  EXPECT_EQ(raw.first_P_collapse.iteration, 1);
+  EXPECT_FALSE(raw.first_P_collapse.faces.empty());
+  EXPECT_EQ(raw.first_Y_collapse.iteration, 0);  // the map collapses, not the shell Y
+
+  o.keep_no_worse = true;
+  const ElasticResult r = elastic_correspondence(A, B, initAB, initBA, o);
+  EXPECT_LE(bad(A, B, r.map_AB), bad0_AB);
+  EXPECT_LE(bad(B, A, r.map_BA), bad0_BA);
+  EXPECT_EQ(r.guard_AB.returned_bad, bad(A, B, r.map_AB));
+  EXPECT_EQ(r.guard_BA.returned_bad, bad(B, A, r.map_BA));
+  if (raw_AB > bad0_AB) EXPECT_NE(r.guard_AB.returned, ElasticReturned::Last);
+  if (raw_BA > bad0_BA) EXPECT_NE(r.guard_BA.returned, ElasticReturned::Last);
+  for (const ElasticGuard* g : {&r.guard_AB, &r.guard_BA}) {
+    if (g->returned == ElasticReturned::EarlierIterate) {
+      EXPECT_GT(g->iteration, 0);
+      EXPECT_LT(g->iteration, r.outer_iterations);
+    }
+    if (g->returned == ElasticReturned::Initial) EXPECT_EQ(g->iteration, 0);
+  }
+  EXPECT_TRUE(r.Y.allFinite());
+  EXPECT_TRUE(r.Ytilde.allFinite());
+  EXPECT_EQ(r.Y.rows(), A.num_vertices());
+  EXPECT_EQ(r.Ytilde.rows(), B.num_vertices());
+  // the same iterations as without the guard: only the choice of the returned map differs
+  ASSERT_EQ(r.history.size(), raw.history.size());
+  EXPECT_EQ(r.history.back().energy, raw.history.back().energy);
+  // A longer run reopens the triangles here: then the guard keeps the last iterate.
+  o.max_outer_iterations = 6;
+  const ElasticResult r6 = elastic_correspondence(A, B, initAB, initBA, o);
+  EXPECT_GT(r6.history.front().P_folds.bad(), bad0_AB);
+  EXPECT_EQ(r6.guard_AB.returned, r6.guard_AB.last_bad <= bad0_AB ? ElasticReturned::Last : ElasticReturned::EarlierIterate);
+  EXPECT_LE(bad(A, B, r6.map_AB), bad0_AB);
+  EXPECT_LE(bad(B, A, r6.map_BA), bad0_BA);
+}
+
+// fold_counts agrees with surface_distortion's counts (it is what the guard uses).
+TEST(Elastic, FoldCountsMatchSurfaceDistortion) {
+  GeneratedPair pair = make_creature_pair(5, PairKind::NonIsometric, 600);
+  const BarycentricMap P = snap(perturb(pair.truth_AB, pair.B, 0.05));
+  const SurfaceDistortion d = surface_distortion(pair.A, pair.B, P);
+  const Eigen::MatrixXd X = unit_area_normalization(pair.A).apply(pair.A.V);
+  const Eigen::MatrixXd Xt = unit_area_normalization(pair.B).apply(pair.B.V);
+  const FoldCounts c = fold_counts(X, pair.A.F, map_positions(P, Xt, pair.B.F), face_normals(Xt, pair.B.F), P.elem);
+  EXPECT_GT(d.flipped + d.degenerate, 0);
+  EXPECT_EQ(c.flipped, d.flipped);
+  EXPECT_EQ(c.degenerate, d.degenerate);
+}
+
+// Issue 20: the safe projection (ElasticOptions::safe_projection) keeps the rows that would
+// fold a mapped triangle at their previous value, so on the construction above (whose plain
+// first P step folds) no iterate folds a triangle.
+TEST(Elastic, SafeProjectionNeverFolds) {
+  const TriMesh A = bumpy_sphere(24, 36, 0.0, 0.0);
+  const TriMesh B = bumpy_sphere(3, 4, 0.0, 0.0);
+  const BarycentricMap initAB = radial_map(A, B), initBA = radial_map(B, A);
+  ElasticOptions o;
+  o.max_outer_iterations = 4;
+  o.keep_no_worse = false;
+  o.safe_projection = true;
+  const ElasticResult r = elastic_correspondence(A, B, initAB, initBA, o);
+  EXPECT_GT(r.projection_rows_kept, 0);
+  for (const auto& it : r.history) {
+    EXPECT_EQ(it.P_folds.bad(), 0);
+    EXPECT_EQ(it.Q_folds.bad(), 0);
+    EXPECT_TRUE(std::isfinite(it.energy));
+  }
+  o.safe_projection = false;
+  const ElasticResult plain = elastic_correspondence(A, B, initAB, initBA, o);
+  EXPECT_GT(plain.history.front().P_folds.bad(), 0);  // the plain argmin folds here
 }

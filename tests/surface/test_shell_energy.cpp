@@ -276,3 +276,39 @@ TEST(ShellEnergy, SerialAndParallelPathsIdenticalAndGradient) {
   }
   W.unfreeze_mask();
 }
+
+// Issue 20: log_eps = 0 makes -log det G (Eq. 7) an unbounded barrier: exact gradient on a
+// strongly compressed shell, and the energy grows without bound as one triangle collapses
+// (the linear extension of Sec. 4.1 stays bounded).
+TEST(ShellEnergy, UnboundedBarrierGradientAndGrowth) {
+  Eigen::MatrixXd V;
+  Eigen::MatrixXi F;
+  test_sphere(V, F);
+  ShellEnergyOptions o;
+  o.log_eps = 0;
+  ShellEnergy W(V, F, o);
+  Eigen::MatrixXd Y = 0.1 * V;  // det G ~ 1e-4 on every triangle
+  std::mt19937 rng(11);
+  std::normal_distribution<double> N(0, 0.005);
+  for (int i = 0; i < Y.size(); ++i) Y(i) += N(rng);
+  check_gradient(W, Y, 1e-5, 1e-8);
+  // move vertex 0 of face 0 onto the midpoint of its opposite edge: that face collapses
+  ShellEnergy Wlin(V, F);  // default eps = 1e-4
+  const int v = F(0, 0);
+  const Eigen::RowVector3d mid = 0.5 * (V.row(F(0, 1)) + V.row(F(0, 2)));
+  double prev = -1, prev_lin = -1, last = 0, last_lin = 0;
+  for (double s : {0.9, 0.99, 0.999, 0.9999, 0.99999}) {
+    Eigen::MatrixXd Z = V;
+    Z.row(v) = (1 - s) * V.row(v) + s * mid;
+    last = W.evaluate(Z);
+    last_lin = Wlin.evaluate(Z);
+    EXPECT_GT(last, prev);
+    prev = last;
+    prev_lin = std::max(prev_lin, last_lin);
+  }
+  EXPECT_GT(last - last_lin, 5.0);  // -log(1e-10) against the bounded extension
+  Eigen::MatrixXd Z = V;
+  Z.row(v) = mid;
+  const double at = W.evaluate(Z);  // zero area up to rounding: +inf or larger still
+  EXPECT_TRUE(!std::isfinite(at) || at > last) << at;
+}

@@ -10,6 +10,7 @@
 #include "shapemap/maps.h"
 #include "shapemap/mesh.h"
 #include <Eigen/Core>
+#include <vector>
 
 namespace shapemap {
 
@@ -40,6 +41,22 @@ Eigen::VectorXd conformal_distortion(const Eigen::MatrixXd& X, const Eigen::Matr
 // Per-face log(area_Y / area_X) (unclamped; -inf for collapsed). m×1.
 Eigen::VectorXd area_distortion(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
                                 const Eigen::MatrixXi& F);
+
+// Flipped and collapsed triangles only, as surface_distortion counts them, in the frame given
+// (no normalization; cheap enough to run every outer iteration of the elastic refinement).
+// X n×3, F m×3: the source; Y n×3: positions of its vertices on or near the target (P X~, or
+// a deformation); Nt m~×3: unit face normals of the target; elem (n): the target face of
+// each vertex, whose normal is the target surface normal there. Collapsed: a_t <= tol a^_t;
+// flipped: not collapsed and the mapped normal opposes the sum of the corners' target
+// normals. faces (optional, m): 0 fine, 1 flipped, 2 collapsed.
+struct FoldCounts {
+  int flipped = 0;
+  int degenerate = 0;
+  int bad() const { return flipped + degenerate; }
+};
+FoldCounts fold_counts(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F, const Eigen::MatrixXd& Y,
+                       const Eigen::MatrixXd& Nt, const Eigen::VectorXi& elem,
+                       double degenerate_tol = 1e-12, std::vector<unsigned char>* faces = nullptr);
 
 // All of the above for the map P: S -> T (P: S.num_vertices() rows onto T's faces).
 SurfaceDistortion surface_distortion(const TriMesh& S, const TriMesh& T, const BarycentricMap& P,

@@ -17,6 +17,7 @@
 #pragma once
 #include "shapemap/maps.h"
 #include "shapemap/mesh.h"
+#include "shapemap/eval/surface_distortion.h"
 #include "shapemap/progress.h"
 #include <Eigen/Core>
 #include <vector>
@@ -39,6 +40,15 @@ struct ElasticOptions {
   double beta_end = 2e5;          //   ... linearly to 2e5 ...
   int beta_ramp_iterations = 200; //   ... over the first 200 outer iterations)
   double gamma = 2e4;             // reversibility penalty, Eq. 6 (Sec. 5.2: 2e4); gamma~ = gamma
+  // Ramp gamma from 0 with beta's schedule (our addition, issue 20; the paper keeps it fixed):
+  // at gamma = 20 beta the first P step's R^6 closest point compares X with the chords
+  // Y~ = Q X and collapses triangles (docs/methods.md).
+  bool gamma_ramp = false;
+  // P / Q step that never folds a mapped triangle that was fine (issue 20, our addition): the
+  // projection's energy is a sum over rows, so rows that would flip or collapse a triangle
+  // keep their previous value and E still does not increase. false = Sec. 5.1's P step, the
+  // plain argmin, whose R^6 closest points can collapse whole patches (docs/methods.md).
+  bool safe_projection = true;
   int max_outer_iterations = 300; // Algorithm 1: K = 300
   // Algorithm 1 stop: |E_k - E_{k-1}| < energy_tol * |E_k|, tested once beta has reached
   // beta_end (before, E changes because beta does). 0 = always run K iterations.
@@ -57,6 +67,17 @@ struct ElasticOptions {
   // variant of Sec. 6.2: no scaling; alpha divided by the source area s (s~ for the
   // reverse shell), beta and gamma divided by s * s~.
   bool normalize_area = true;
+  // Y-step line search that never passes a triangle of Y through zero area (issue 20, our
+  // addition): a trial step that turns a non-collapsed triangle's normal by more than 90
+  // degrees is shortened. With log_eps = 0 the membrane's -log det G (Eq. 7) is then a true
+  // barrier (Sec. 4.1 extends it linearly below eps, which lets Y collapse at a finite cost).
+  bool keep_orientation = false;
+  // Collapse guard (issue 20, our addition): per direction, never return a map with more
+  // flipped or collapsed triangles (the counts of eval/surface_distortion.h, on unit-area
+  // copies) than the initial one. The returned map is the last iterate if it has no more
+  // than the start, else the latest iterate that has no more, else the initial map
+  // (ElasticResult::guard_AB/BA say which). false = always the last iterate.
+  bool keep_no_worse = true;
   ProgressCallback progress;      // stage "elastic", fraction of max_outer_iterations
 
   // Presets of Sec. 5.2 / 6.1: eta = 0.01 (near-isometric, FAUST intra-class),
@@ -76,6 +97,33 @@ struct ElasticIterate {
   int inner_evaluations = 0;  // energy + gradient evaluations of the Y and Y~ steps
   double time_projection = 0; // seconds in the P (and Q) steps of this iteration
   double time_deformation = 0;// seconds in the Y (and Y~) steps
+  // Where triangles collapse (issue 20), after this iteration, on unit-area copies: mapped
+  // triangles of P (A -> B) and Q (B -> A) and of the deformed shells Y and Y~, flipped
+  // (normal against the target's at the corners' images) and collapsed (a <= 1e-12 a^),
+  // counted as eval/surface_distortion.h does.
+  FoldCounts P_folds, Q_folds, Y_folds, Yt_folds;
+};
+
+// Which map a direction returns (ElasticOptions::keep_no_worse).
+enum class ElasticReturned { Last, EarlierIterate, Initial };
+struct ElasticGuard {
+  ElasticReturned returned = ElasticReturned::Last;
+  int iteration = 0;       // outer iteration (1-based) of the returned map; 0 = the initial map
+  int initial_bad = 0;     // flipped + collapsed triangles of the initial map
+  int last_bad = 0;        // ... of the last iterate
+  int returned_bad = 0;    // ... of the returned map
+};
+
+// The first outer iteration at which the flipped + collapsed count of a map (P or Q) or of a
+// shell (Y or Y~) exceeds its value at the start, and where: the source faces that turned bad
+// then (at most 64, ascending), their area-weighted centroid on the source (input
+// coordinates) and the mean distance |Y - P X~| (unit-area frame) at their corners against
+// the mean over all vertices (the Y step leaves P's projections far off the surface there?).
+struct ElasticCollapseEvent {
+  int iteration = 0;               // 0: never
+  std::vector<int> faces;
+  Eigen::RowVector3d centroid = Eigen::RowVector3d::Zero();
+  double mismatch_at_faces = 0, mismatch_mean = 0;
 };
 
 struct ElasticResult {
@@ -89,6 +137,11 @@ struct ElasticResult {
   double time_setup = 0, time_projection = 0, time_deformation = 0, time_total = 0;
   int degenerate_faces_initial = 0;  // faces of Y (and Y~) masked at the start
   int degenerate_faces_final = 0;
+  ElasticGuard guard_AB, guard_BA;   // which iterate each direction returns, and why
+  BarycentricMap last_AB, last_BA;   // the last iterate, kept only when the guard returned another
+  long long projection_rows_kept = 0;  // rows the safe projection kept at their previous value
+  // First collapses, per direction (AB: P and Y; BA: Q and Y~).
+  ElasticCollapseEvent first_P_collapse, first_Y_collapse, first_Q_collapse, first_Yt_collapse;
 };
 
 // A, B: closed triangle meshes (A: n vertices, B: n~ vertices). init_AB: n rows onto B's
