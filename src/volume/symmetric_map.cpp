@@ -644,6 +644,60 @@ void inverted_neighbourhood(const ArapEnergy& arap, const Eigen::MatrixXd& X, in
     if (tin[k]) tets.push_back(k);
 }
 
+
+// The landing stage (ours, issue 19) for one direction i -> j: X's boundary to its closest
+// points on dM_j, the interior relaxed with it held (Newton on the X-step objective, then
+// Sec. 5.3's ARAP repair on interior vertices of inverted tets). The located result
+// replaces X unless it inverts more tets than X located as it was ("snapped"); `located`
+// receives the chosen map (the map files: barycentric coordinates do not change with the
+// unit-volume scaling) and X its positions. Returns true when the landed X was kept.
+bool land_on_target(const DirectionalEnergy& e, const TetMesh& Mi, const TetMesh& Mj,
+                    const std::vector<int>& interior, const std::vector<std::vector<int>>& vv,
+                    const std::vector<std::vector<int>>& vt, const SymmetricVolumeMapOptions& opt,
+                    Eigen::MatrixXd& X, BarycentricMap& located, SymmetricMapStage& st) {
+  const TetBoundary& bi = e.boundary_i();
+  const TetBoundary& bj = e.boundary_j();
+  const std::vector<int> brows(bi.to_volume.data(), bi.to_volume.data() + bi.to_volume.size());
+  const BarycentricMap snapped_map = locate_in_tets(Mj, X, brows);
+  const Eigen::MatrixXd snapped = map_positions(snapped_map, Mj.V, Mj.T);
+  ClosestPoint3 target(bj.surface.V, bj.surface.F);
+  Eigen::MatrixXd Q(brows.size(), 3);
+  for (int b = 0; b < Q.rows(); ++b) Q.row(b) = X.row(brows[b]);
+  const std::vector<ClosestPointResult> hit = target.query(Q);
+  for (int b = 0; b < Q.rows(); ++b) {
+    Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
+    for (int c = 0; c < 3; ++c) p += hit[b].bary(c) * bj.surface.V.row(bj.surface.F(hit[b].elem, c));
+    X.row(brows[b]) = p;
+  }
+  ProjectedNewton pn(BlockHessian(Mi.T, Mi.num_vertices(), interior));
+  NewtonOptions no;
+  no.max_iterations = opt.land_newton_iterations;
+  no.f_rel_tol = opt.newton_rel_tol;
+  no.grad_tol = 0;
+  const LbfgsResult r = newton_rows(e, pn, X, no, st.newton_seconds);
+  st.lbfgs_iterations += r.iterations;
+  st.evaluations += r.evaluations;
+  const ArapEnergy& arap = e.arap();
+  std::vector<char> is_interior(Mi.num_vertices(), 0);
+  for (int v : interior) is_interior[v] = 1;
+  for (int round = 0; round < opt.post_repair_rounds; ++round) {
+    std::vector<int> verts, tets, free;
+    inverted_neighbourhood(arap, X, opt.repair_rings, vv, vt, verts, tets);
+    for (int v : verts)
+      if (is_interior[v]) free.push_back(v);
+    if (free.empty()) break;
+    auto f = [&](const Eigen::MatrixXd& Y, Eigen::MatrixXd* g) { return arap.energy(Y, tets, g); };
+    st.iterations += minimize_rows(f, X, free, opt.post_repair_steps, opt.lbfgs_memory).iterations;
+  }
+  // Interior images that still fall outside M_j are located (snapped) too.
+  const BarycentricMap landed_map = locate_in_tets(Mj, X, brows);
+  const Eigen::MatrixXd landed = map_positions(landed_map, Mj.V, Mj.T);
+  const bool keep = count_inverted(arap, landed) <= count_inverted(arap, snapped);
+  X = keep ? landed : snapped;
+  located = keep ? landed_map : snapped_map;
+  return keep;
+}
+
 }  // namespace
 
 SymmetricVolumeMapResult symmetric_volume_map(const TetMesh& A, const TetMesh& B,
@@ -855,60 +909,11 @@ SymmetricVolumeMapResult symmetric_volume_map(const TetMesh& A, const TetMesh& B
     auto t0 = Clock::now();
     set_weights(opt.alpha, beta, gamma);
     for (int dir = 0; dir < 2; ++dir) {
-      DirectionalEnergy& e = dir == 0 ? e12 : e21;
-      Eigen::MatrixXd& X = dir == 0 ? X12 : X21;
-      const TetMesh& Mi = dir == 0 ? M1 : M2;
-      const std::vector<int>& interior = dir == 0 ? int1 : int2;
-      const TetBoundary& bi = e.boundary_i();
-      const TetBoundary& bj = e.boundary_j();
-      const TetMesh& Mj = dir == 0 ? M2 : M1;
-      std::vector<int> brows(bi.to_volume.data(), bi.to_volume.data() + bi.to_volume.size());
-      // What the map files would hold without this stage: X located in M_j, the boundary
-      // snapped to dM_j.
-      const BarycentricMap snapped_map = locate_in_tets(Mj, X, brows);
-      const Eigen::MatrixXd snapped = map_positions(snapped_map, Mj.V, Mj.T);
-      ClosestPoint3 target(bj.surface.V, bj.surface.F);
-      Eigen::MatrixXd Q(bi.to_volume.size(), 3);
-      for (int b = 0; b < Q.rows(); ++b) Q.row(b) = X.row(bi.to_volume(b));
-      const std::vector<ClosestPointResult> hit = target.query(Q);
-      for (int b = 0; b < Q.rows(); ++b) {
-        Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
-        for (int c = 0; c < 3; ++c) p += hit[b].bary(c) * bj.surface.V.row(bj.surface.F(hit[b].elem, c));
-        X.row(bi.to_volume(b)) = p;
-      }
-      ProjectedNewton pn(BlockHessian(Mi.T, Mi.num_vertices(), interior));
-      NewtonOptions no;
-      no.max_iterations = opt.land_newton_iterations;
-      no.f_rel_tol = opt.newton_rel_tol;
-      no.grad_tol = 0;
-      LbfgsResult r = newton_rows(e, pn, X, no, st.newton_seconds);
-      st.lbfgs_iterations += r.iterations;
-      st.evaluations += r.evaluations;
-      // Sec. 5.3's repair, boundary held: interior vertices of inverted tets and one ring.
-      const ArapEnergy& arap = e.arap();
-      std::vector<char> is_interior(Mi.num_vertices(), 0);
-      for (int v : interior) is_interior[v] = 1;
-      for (int round = 0; round < opt.post_repair_rounds; ++round) {
-        std::vector<int> verts, tets, free;
-        inverted_neighbourhood(arap, X, opt.repair_rings, dir == 0 ? vv1 : vv2, dir == 0 ? vt1 : vt2, verts, tets);
-        for (int v : verts)
-          if (is_interior[v]) free.push_back(v);
-        if (free.empty()) break;
-        auto f = [&](const Eigen::MatrixXd& Y, Eigen::MatrixXd* g) { return arap.energy(Y, tets, g); };
-        st.iterations += minimize_rows(f, X, free, opt.post_repair_steps, opt.lbfgs_memory).iterations;
-      }
-      // The map files of the landed X (interior images that still fall outside M_j are
-      // snapped too); kept unless they invert more tets than the snapped X of stage 5.
-      // Either way X becomes exactly what the files hold.
-      const BarycentricMap landed_map = locate_in_tets(Mj, X, brows);
-      const Eigen::MatrixXd landed = map_positions(landed_map, Mj.V, Mj.T);
-      const bool keep = count_inverted(arap, landed) <= count_inverted(arap, snapped);
-      X = keep ? landed : snapped;
-      // Barycentric coordinates do not change with the unit-volume scaling: these are the
-      // map files, exactly.
-      (dir == 0 ? final12 : final21) = keep ? landed_map : snapped_map;
+      const bool landed = land_on_target(dir == 0 ? e12 : e21, dir == 0 ? M1 : M2, dir == 0 ? M2 : M1,
+                                         dir == 0 ? int1 : int2, dir == 0 ? vv1 : vv2, dir == 0 ? vt1 : vt2, opt,
+                                         dir == 0 ? X12 : X21, dir == 0 ? final12 : final21, st);
       st.stop_reason += std::string(st.stop_reason.empty() ? "" : ", ") + (dir == 0 ? "AB " : "BA ") +
-                        (keep ? "landed" : "snapped (landing inverted more)");
+                        (landed ? "landed" : "snapped (landing inverted more)");
     }
     st.energy = e12.evaluate(X12) + e21.evaluate(X21);
     st.inverted12 = count_inverted(e12.arap(), X12);
