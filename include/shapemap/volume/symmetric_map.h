@@ -74,6 +74,13 @@ struct SymmetricVolumeMapOptions {
   // then exactly what the map files (barycentric coordinates in the target) hold.
   bool land_on_target = true;
   int land_newton_iterations = 10;
+  // Ours: before the projection, gamma (Eq. 25) is raised land_gamma_rounds times by
+  // land_gamma_factor with every vertex free (Newton, land_newton_iterations per round,
+  // closest points recomputed each evaluation), so the boundary approaches dM_j sliding
+  // along it, ARAP spreading the motion; the final projection then moves it little.
+  // 0 rounds = project at once.
+  int land_gamma_rounds = 2;
+  double land_gamma_factor = 4.0;
   bool fix_boundary_first = true;  // Algorithm 1 lines 6-10 (stage 2): boundary of X fixed,
                                    // boundary rows of P restored each iteration
   bool boundary_to_boundary = false;  // Sec. 5.2: hard constraint P in P*_ij (boundary rows
@@ -175,6 +182,10 @@ class DirectionalEnergy {
   };
   DirectionalEnergy(const TetMesh& Mi, const TetMesh& Mj);
   void set_weights(double alpha, double beta, double gamma, double backward_scale = 1.0);
+  double alpha() const { return alpha_; }
+  double beta() const { return beta_; }
+  double gamma() const { return gamma_; }
+  double backward_scale() const { return bscale_; }
   // P_ij: n_i rows -> tets of M_j; P_ji: n_j rows -> tets of M_i.
   void set_maps(const BarycentricMap& P_ij, const BarycentricMap& P_ji);
   // Eq. 25 (X_ij part). X: n_i×3; grad n_i×3 if non-null.
