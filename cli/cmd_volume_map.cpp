@@ -187,6 +187,11 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
   c.app->add_flag("--no-land-on-target", [a](std::int64_t) { a->opt.land_on_target = false; },
                   "Skip the final stage that puts X's boundary on the target's boundary and relaxes the "
                   "interior (ours; without it the map files snap images left outside into the target)");
+  c.app->add_option("--post-repair-penalty", a->opt.post_repair_penalty.floor,
+                    "Stage 5: ARAP plus a 6th-order penalty on signed singular values below this "
+                    "(the authors' released code; 0 = ARAP alone, the paper's text)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1.0));
   c.app->add_option("--land-gamma-rounds", a->opt.land_gamma_rounds,
                     "Landing: rounds raising gamma (Eq. 25) before the boundary is projected (ours; 0 = "
                     "project at once)")
@@ -373,7 +378,7 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
                        {"gamma_start", o.gamma_start}, {"backward_projection_scale", o.backward_projection_scale},
                        {"max_iterations", o.max_iterations}, {"solver", a->solver},
                        {"newton_iterations", o.newton_iterations},
-                       {"boundary_fixed_stage", o.fix_boundary_first}, {"land_on_target", o.land_on_target}, {"land_gamma_rounds", o.land_gamma_rounds}, {"land_gamma_factor", o.land_gamma_factor}, {"xstep_iterations", o.xstep_iterations},
+                       {"boundary_fixed_stage", o.fix_boundary_first}, {"land_on_target", o.land_on_target}, {"land_gamma_rounds", o.land_gamma_rounds}, {"land_gamma_factor", o.land_gamma_factor}, {"post_repair_penalty", o.post_repair_penalty.floor}, {"xstep_iterations", o.xstep_iterations},
                        {"grad_tol", o.grad_tol}, {"decrease_tol", o.decrease_tol},
                        {"decrease_rel_tol", o.decrease_rel_tol},
                        {"repair_rings", o.repair_rings}, {"post_repair_steps", o.post_repair_steps},

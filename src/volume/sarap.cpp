@@ -108,6 +108,25 @@ double arap_distortion(const Eigen::Matrix3d& J, Eigen::Matrix3d* grad) {
   return f;
 }
 
+double penalized_arap_distortion(const Eigen::Matrix3d& J, const SigmaPenalty& pen,
+                                 Eigen::Matrix3d* grad) {
+  double f = arap_distortion(J, grad);
+  if (!(pen.floor > 0) || pen.weight == 0) return f;
+  const SignedSVD3 s = signed_svd3(J);
+  if (s.S.minCoeff() >= pen.floor) return f;
+  // d sigma_j / d J = u_j v_j^T (distinct singular values; ties have measure zero).
+  Eigen::Vector3d gp = Eigen::Vector3d::Zero();
+  for (int j = 0; j < 3; ++j) {
+    const double t = (pen.floor - s.S(j)) / pen.floor;
+    if (t <= 0) continue;
+    const double t5 = t * t * t * t * t;
+    f += pen.weight * t5 * t;
+    gp(j) = -6.0 * pen.weight * t5 / pen.floor;
+  }
+  if (grad) *grad += s.U * gp.asDiagonal() * s.V.transpose();
+  return f;
+}
+
 Eigen::Matrix<double, 12, 12> arap_tet_hessian(const Eigen::Matrix<double, 4, 3>& x,
                                                const Eigen::Matrix3d& Dm_inv, double scale,
                                                bool project) {
@@ -171,14 +190,16 @@ void ArapEnergy::build(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T) {
 
 namespace {
 // Energy and Eq. 26 gradient of one tet; g rows = vertices 0..3.
+// pen: the post-repair penalty (SigmaPenalty), or nullptr for Eq. 19 alone.
 inline double tet_term(const Eigen::MatrixXd& X, const Eigen::MatrixXi& T, int k,
-                       const Eigen::Matrix3d& Dm_inv, double w, Eigen::Matrix<double, 4, 3>* g) {
+                       const Eigen::Matrix3d& Dm_inv, double w, Eigen::Matrix<double, 4, 3>* g,
+                       const SigmaPenalty* pen = nullptr) {
   Eigen::Matrix3d Ds;
   for (int j = 0; j < 3; ++j) Ds.col(j) = (X.row(T(k, j + 1)) - X.row(T(k, 0))).transpose();
   Eigen::Matrix3d J = Ds * Dm_inv;
-  if (!g) return w * arap_distortion(J, nullptr);
+  if (!g) return w * (pen ? penalized_arap_distortion(J, *pen) : arap_distortion(J, nullptr));
   Eigen::Matrix3d G;
-  double f = arap_distortion(J, &G);
+  double f = pen ? penalized_arap_distortion(J, *pen, &G) : arap_distortion(J, &G);
   // d f / d Ds = G Dm_inv^T; columns -> vertices 1..3, vertex 0 gets minus their sum.
   Eigen::Matrix3d H = w * G * Dm_inv.transpose();
   for (int j = 0; j < 3; ++j) g->row(j + 1) = H.col(j).transpose();
@@ -212,12 +233,18 @@ double ArapEnergy::energy(const Eigen::MatrixXd& X, Eigen::MatrixXd* grad) const
 
 double ArapEnergy::energy(const Eigen::MatrixXd& X, const std::vector<int>& tets,
                           Eigen::MatrixXd* grad) const {
+  return energy(X, tets, grad, SigmaPenalty{0.0, 0.0});
+}
+
+double ArapEnergy::energy(const Eigen::MatrixXd& X, const std::vector<int>& tets,
+                          Eigen::MatrixXd* grad, const SigmaPenalty& pen) const {
   const int m = int(tets.size());
   if (X.rows() != n_ || X.cols() != 3) throw Error("ArapEnergy: X must be n×3");
+  const SigmaPenalty* p = pen.floor > 0 && pen.weight != 0 ? &pen : nullptr;
 #pragma omp parallel for schedule(static)
   for (int q = 0; q < m; ++q) {
     int k = tets[q];
-    tet_e_(k) = tet_term(X, T_, k, Dm_inv_[k], w_(k), grad ? &tet_g_[k] : nullptr);
+    tet_e_(k) = tet_term(X, T_, k, Dm_inv_[k], w_(k), grad ? &tet_g_[k] : nullptr, p);
   }
   double E = 0;
   for (int q = 0; q < m; ++q) E += tet_e_(tets[q]);

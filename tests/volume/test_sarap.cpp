@@ -106,6 +106,49 @@ TEST(Sarap, GradientMatchesFiniteDifferencesWithInvertedTets) {
   EXPECT_LT((G2 - G).cwiseAbs().maxCoeff(), 1e-12);
 }
 
+// The post-repair penalty (SigmaPenalty): zero while every signed singular value is above
+// the floor, the closed form on a diagonal J, and its gradient against finite differences
+// with inverted and flattened tets.
+TEST(Sarap, SigmaPenaltyClosedFormAndGradient) {
+  const SigmaPenalty pen{0.1, 2.0};
+  const Eigen::Matrix3d Jok = Eigen::Vector3d(0.5, 1.2, 0.2).asDiagonal();
+  EXPECT_NEAR(penalized_arap_distortion(Jok, pen), arap_distortion(Jok), 1e-14);
+  // diag(1, 0.05, -0.2): det < 0, so the smallest singular value carries the sign:
+  // signed sigma = (1, 0.2, -0.05), and only -0.05 is below the floor: t = 1.5.
+  const Eigen::Matrix3d Jbad = Eigen::Vector3d(1.0, 0.05, -0.2).asDiagonal();
+  const double expect = arap_distortion(Jbad) + 2.0 * std::pow(1.5, 6);
+  EXPECT_NEAR(penalized_arap_distortion(Jbad, pen), expect, 1e-9 * expect);
+
+  TetMesh m = grid_box(2, 2, 2, 1.0, 1.0, 1.0);
+  ArapEnergy e(m.V, m.T);
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> u(-0.35, 0.35);
+  Eigen::MatrixXd X = m.V;
+  for (int i = 0; i < X.size(); ++i) X(i) += u(rng);
+  X.row(m.T(0, 0)) = X.row(m.T(0, 1)) + 1.1 * (X.row(m.T(0, 1)) - X.row(m.T(0, 0)));
+  std::vector<int> all(m.T.rows());
+  for (int k = 0; k < int(all.size()); ++k) all[k] = k;
+  Eigen::VectorXd det = e.determinants(X);
+  int low = 0;
+  for (int k = 0; k < det.size(); ++k) low += det(k) < 0.1;
+  ASSERT_GT(low, 0);
+  Eigen::MatrixXd G;
+  const double E = e.energy(X, all, &G, pen);
+  EXPECT_GT(E, e.energy(X) + 1e-6);  // the penalty is active
+  const double h = 1e-6;
+  double maxerr = 0, maxg = 0;
+  for (int i = 0; i < X.rows(); ++i)
+    for (int d = 0; d < 3; ++d) {
+      Eigen::MatrixXd Xp = X, Xm = X;
+      Xp(i, d) += h;
+      Xm(i, d) -= h;
+      const double fd = (e.energy(Xp, all, nullptr, pen) - e.energy(Xm, all, nullptr, pen)) / (2 * h);
+      maxerr = std::max(maxerr, std::abs(fd - G(i, d)));
+      maxg = std::max(maxg, std::abs(G(i, d)));
+    }
+  EXPECT_LT(maxerr, 1e-5 * std::max(1.0, maxg));
+}
+
 TEST(Sarap, FlatTetsHaveFiniteEnergyAndGradient) {
   TetMesh m = grid_box(1, 1, 1, 1.0, 1.0, 1.0);
   ArapEnergy e(m.V, m.T);

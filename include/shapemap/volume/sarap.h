@@ -37,6 +37,19 @@ Eigen::Matrix<double, 12, 12> arap_tet_hessian(const Eigen::Matrix<double, 4, 3>
                                                const Eigen::Matrix3d& Dm_inv, double scale,
                                                bool project = true);
 
+// The post-repair penalty of the authors' released code (issue 19): f_ARAP plus
+//   weight * sum_j ((floor - sigma_j) / floor)^6   for each signed sigma_j < floor,
+// which rises steeply as a tet flattens or turns over (ARAP alone stays finite, so moving
+// the corners of one inverted tet can turn its neighbours over). floor <= 0: no penalty.
+struct SigmaPenalty {
+  double floor = 0.1;
+  double weight = 1.0;
+};
+
+// Eq. 19 plus the penalty on a Jacobian (signed SVD inside); d/dJ into grad if non-null.
+double penalized_arap_distortion(const Eigen::Matrix3d& J, const SigmaPenalty& pen,
+                                 Eigen::Matrix3d* grad = nullptr);
+
 class BlockHessian;
 
 // Eq. 20 for one map of a fixed source tet mesh: precompute, then evaluate many X.
@@ -57,6 +70,9 @@ class ArapEnergy {
   // left out); grad (n×3, resized, zero outside those tets) if non-null.
   double energy(const Eigen::MatrixXd& X, const std::vector<int>& tets,
                 Eigen::MatrixXd* grad) const;
+  // The same with f_ARAP replaced by penalized_arap_distortion (post-repair).
+  double energy(const Eigen::MatrixXd& X, const std::vector<int>& tets, Eigen::MatrixXd* grad,
+                const SigmaPenalty& pen) const;
 
   // Adds scale × the projected Hessian of E_ARAP (Eq. 20) at X to H (over all tets, or over
   // `tets` when non-null). Per-tet Hessians are computed in parallel into scratch and added

@@ -67,6 +67,9 @@ struct SymmetricVolumeMapOptions {
   // rounds again on this many rings around them (stage 3's neighbourhood), and stage 5 is
   // undone per direction unless it lowered the inverted count; 0 = off (the paper's stage).
   int post_repair_fallback_rings = 1;
+  // The authors' released code (not in the paper): in stage 5 (and the landing's repair),
+  // ARAP plus a 6th-order penalty on signed singular values below 0.1 (sarap.h).
+  SigmaPenalty post_repair_penalty;
   // Ours (issue 19), after stage 5: the boundary of X projected onto the target's boundary,
   // the interior relaxed with it held (Newton, at most land_newton_iterations, then the
   // Sec. 5.3 repair on interior vertices); per direction the result replaces X unless its
@@ -81,6 +84,9 @@ struct SymmetricVolumeMapOptions {
   // 0 rounds = project at once.
   int land_gamma_rounds = 2;
   double land_gamma_factor = 4.0;
+  // Landing's repair: boundary vertices of inverted tets slide along dM_j, held near their
+  // starting points by a spring this many times softer than the one to dM_j (ours).
+  double land_slide_anchor = 0.03;
   bool fix_boundary_first = true;  // Algorithm 1 lines 6-10 (stage 2): boundary of X fixed,
                                    // boundary rows of P restored each iteration
   bool boundary_to_boundary = false;  // Sec. 5.2: hard constraint P in P*_ij (boundary rows
