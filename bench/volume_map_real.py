@@ -218,8 +218,8 @@ def main():
                 row["stages"] = [(s["name"], s["stop_reason"], s["iterations"]) for s in rep["algorithm_stages"]]
                 if truth:
                     tr = os.path.join(out, "eval.json")
-                    c2, _, _ = r.run(["evaluate", "volume", A, B, os.path.join(out, "map_AB.txt"), "--truth", truth,
-                                      "-o", tr, "--quiet"])
+                    c2, _, _ = r.run(["--quiet", "evaluate", "volume", A, B, os.path.join(out, "map_AB.txt"),
+                                      "--truth", truth, "-o", tr])
                     if c2 == 0:
                         row["truth"] = json.load(open(tr))["metrics"]
             else:

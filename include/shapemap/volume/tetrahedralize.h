@@ -35,6 +35,8 @@ struct TetrahedralizeInfo {
                                    // (its first problem); the result is meshed without ODT
   int self_intersecting_pairs = 0; // > 0: the surface crosses itself (pairs of faces); the
                                    // inside by ray parity was meshed without crease protection
+  bool self_intersections_removed = false;  // that meshing ran away, and the crossings were
+                                            // removed (CGAL PMP) before meshing again
 };
 
 // Pairs of faces of a closed manifold surface that intersect other than along the edges and
