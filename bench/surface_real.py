@@ -24,7 +24,7 @@ of the shapemap binary: a rerun with the same binary only prints; --fresh recomp
 --any-binary keeps rows made by another binary (for a change known not to alter the maps).
 
 Usage: bench/surface_real.sh [--pairs a,b,...] [--build DIR] [--work DIR] [--threads N]
-                             [--fresh] [--any-binary] [--caption TEXT]
+                             [--fresh] [--any-binary] [--extra="ARGS"] [--caption TEXT]
 Writes WORK/surface_real.md (default bench/out/surface_real) and WORK/results.json.
 Exit status 1 when a run failed or a target is missed, 0 otherwise.
 """
@@ -133,7 +133,7 @@ def evaluate(r, A, B, out, landmarks):
     return m
 
 
-def run_pair(r, data, work, name, binhash, fresh, any_binary):
+def run_pair(r, data, work, name, binhash, fresh, any_binary, extra):
     """BIM then elastic on one pair (each cached); list of rows."""
     a, b, has_lm = pair_files(name)
     A, B = os.path.join(data, a + ".off"), os.path.join(data, b + ".off")
@@ -148,13 +148,13 @@ def run_pair(r, data, work, name, binhash, fresh, any_binary):
                 rows.append(row)
                 continue
         if method == "bim":
-            args = ["surface-map", A, B, "-o", out, "--method", "bim", "--symmetric"]
+            args = ["surface-map", A, B, "-o", out, "--method", "bim", "--symmetric"] + extra
         else:
             if not os.path.exists(os.path.join(work, name, "bim", "map_BA.txt")):
                 rows.append({"pair": name, "method": method, "exit_code": None, "binary": binhash})
                 continue
             args = ["surface-map", A, B, "-o", out, "--method", "elastic", "--init",
-                    os.path.join(work, name, "bim")]
+                    os.path.join(work, name, "bim")] + extra
         code, wall = r.run(args)
         row = {"pair": name, "method": method, "exit_code": code, "wall": wall, "binary": binhash}
         if code == 0:
@@ -264,6 +264,8 @@ def main():
     ap.add_argument("--fresh", action="store_true", help="recompute cached pairs")
     ap.add_argument("--any-binary", action="store_true",
                     help="use cached rows made by another shapemap binary (row.json: binary)")
+    ap.add_argument("--extra", default="", help="more surface-map arguments (BIM and elastic); "
+                    "use another --work, the cache does not know them")
     ap.add_argument("--caption", default="", help="a line printed above the table")
     args = ap.parse_args()
     data = os.environ.get("SHAPEMAP_DATA", os.path.join(ROOT, "..", "shared", "data"))
@@ -287,7 +289,8 @@ def main():
     r.bin = copy
     rows = []
     for name in names:
-        rows.extend(run_pair(r, data, args.work, name, binhash, args.fresh, args.any_binary))
+        rows.extend(run_pair(r, data, args.work, name, binhash, args.fresh, args.any_binary,
+                             shlex.split(args.extra)))
     json.dump(rows, open(os.path.join(args.work, "results.json"), "w"), indent=1)
     checks = targets(rows)
     lines = ([args.caption, ""] if args.caption else []) + table(rows)
