@@ -676,6 +676,7 @@ BIMDirectionResult bim_map(const BIMSurface& src, const BIMSurface& dst, const B
 // BIMOptions::reverse_candidates: R (src -> dst) becomes the inverse of Rrev (dst -> src),
 // which locates each source vertex on dst's triangulation placed at its images under Rrev
 // (closest point), as the elastic CLI derives Q from P.
+namespace {
 void take_inverse(const BIMSurface& src, const BIMSurface& dst, const BIMDirectionResult& Rrev,
                   BIMDirectionResult& R) {
   const Eigen::MatrixXd Y = map_positions(Rrev.map, src.mesh.V, src.F_input);  // dst vertices on src
@@ -697,6 +698,7 @@ void take_inverse(const BIMSurface& src, const BIMSurface& dst, const BIMDirecti
   R.positions = map_positions(inv, dst.V_input, dst.F_input);
   R.from_reverse = true;
 }
+}  // namespace
 
 BIMResult blended_intrinsic_maps(const TriMesh& A, const TriMesh& B, const BIMOptions& opt,
                                  const ProgressCallback& progress) {
