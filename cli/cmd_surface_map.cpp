@@ -26,6 +26,7 @@ struct SurfaceMapArgs {
   std::string init = "bim";
   std::vector<std::string> landmarks;  // LA LB
   bool symmetric = false;
+  bool reverse_candidates = false;
   // BIM options exposed on the command line (defaults from the paper, BIMOptions).
   int max_features = 10;
   int max_candidates = 10000;
@@ -56,6 +57,7 @@ BIMOptions bim_options(const SurfaceMapArgs& a, const GlobalOptions& g, const In
   BIMOptions o;
   o.seed = g.seed;
   o.symmetric = a.symmetric;
+  o.reverse_candidates = a.reverse_candidates;
   o.name_A = a.A;
   o.name_B = a.B;
   o.max_features = a.max_features;
@@ -77,6 +79,8 @@ nlohmann::json direction_json(const BIMDirectionResult& r) {
   j["group_sizes"] = r.group_sizes;
   j["group_integrated_confidence"] = r.group_confidence;
   j["selected_group"] = r.selected_group;
+  j["from_reverse"] = r.from_reverse;
+  if (r.from_reverse) j["own_integrated_confidence"] = r.own_integrated_confidence;
   j["best_single_map_confidence"] = r.best_candidate_confidence;
   nlohmann::json sel = nlohmann::json::array();
   for (auto& m : r.selected)
@@ -140,7 +144,7 @@ int run_bim(const SurfaceMapArgs& a, const ElasticCliOptions& eo, const GlobalOp
                      {"max_candidates", o.max_candidates}, {"sigma", o.sigma},
                      {"eigenvalue_fraction", o.eigenvalue_fraction},
                      {"entry_fraction", o.entry_fraction}, {"feature_radius", o.feature_radius},
-                     {"symmetric", o.symmetric}};
+                     {"symmetric", o.symmetric}, {"reverse_candidates", o.reverse_candidates}};
   // BIM's own output (Sec. 5): candidates, consistency spectrum, selected maps, stages.
   nlohmann::json bim;
   bim["features_A"] = r.features_A;
@@ -208,6 +212,9 @@ Command register_surface_map(CLI::App& app, GlobalOptions& g) {
   c.app->add_flag("--symmetric", a->symmetric,
                   "BIM: also compute the map B -> A (the elastic bijective model always does; "
                   "not with --elastic-injective)");
+  c.app->add_flag("--reverse-candidates", a->reverse_candidates,
+                  "BIM with --symmetric (and elastic's BIM init): the direction with the less confident "
+                  "blend takes the inverse of the other direction's blend");
   c.app->add_option("--features", a->max_features, "BIM: at most this many AGD feature points per surface")
       ->check(CLI::Range(3, 30));
   c.app->add_option("--candidates", a->max_candidates, "BIM: at most this many candidate Möbius maps")

@@ -9,8 +9,9 @@
 // copies of A and B: conformal distortion per triangle (Hormann-Greiner MIPS - 2), area
 // distortion log(a/a^) per triangle, mean curvature error |P H~ - H| in the lumped L2 norm,
 // flipped and collapsed mapped triangles; with --map-ba MAP_BA (B -> A) also the
-// reversibility |P Q X - X|_X and the same metrics for MAP_BA. --per-face adds the
-// per-triangle values. JSON on stdout, or in FILE with -o.
+// reversibility |P Q X - X|_X (also per vertex over A's bounding-box diagonal) and the
+// same metrics for MAP_BA. --per-face adds the per-triangle values. JSON on stdout, or in
+// FILE with -o.
 #include "common.h"
 #include "shapemap/error.h"
 #include "shapemap/eval/surface_distortion.h"
@@ -141,6 +142,14 @@ Command register_evaluate_surface(CLI::App& evaluate, GlobalOptions& g) {
       j["map_ba"] = a->map_ba;
       j["reversibility"] = reversibility_error(A, B, map, ba);  // |P Q X - X|_X, unit area
       j["reversibility_definition"] = "|P Q X - X| in the lumped L2 norm of A (unit area)";
+      // The same round trip per vertex, as a share of A's bounding-box diagonal: a
+      // scale-free figure for maps without ground truth (issue 20's camel target).
+      const Eigen::MatrixXd PQX = map_positions(map, map_positions(ba, A.V, A.F), B.F);
+      const double diag = (A.V.colwise().maxCoeff() - A.V.colwise().minCoeff()).norm();
+      const Eigen::VectorXd d = (PQX - A.V).rowwise().norm() / diag;
+      j["reversibility_bbox"] = {{"definition", "per vertex of A: |P Q x - x| / bounding-box diagonal of A"},
+                                 {"mean", d.mean()},
+                                 {"max", d.maxCoeff()}};
       j["distortion_BA"] = distortion_json(B, A, ba, a->per_face);
     }
     if (a->out.empty()) {

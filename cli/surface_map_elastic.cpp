@@ -55,6 +55,17 @@ void add_elastic_options(CLI::App* app, ElasticCliOptions& o) {
                 "elastic: return the last iterate even when it has more flipped or collapsed "
                 "triangles than the initial map (default: the collapse guard keeps the latest "
                 "iterate that has no more, or the initial map; report.json: elastic.guard)");
+  app->add_option("--elastic-inner-iterations", o.inner_iterations,
+                  "elastic: at most this many L-BFGS iterations per Y step (Sec. 5.1: 50)")
+      ->check(non_negative());
+  app->add_option("--elastic-inner-f-tol", o.inner_f_tol,
+                  "elastic: a Y step stops when an iteration lowers E by less than this times "
+                  "max(1, |E|) (default 1e-9)")
+      ->check(non_negative());
+  app->add_option("--elastic-ramp-inner-f-tol", o.ramp_inner_f_tol,
+                  "elastic: the same during the beta ramp (default 0: as --elastic-inner-f-tol; "
+                  "1e-6 about halves the time at a slightly larger error, docs/methods.md)")
+      ->check(non_negative());
   app->add_option("--truth", o.truth_ab,
                   "ground-truth map A->B (map file) for the geodesic error in report.json");
 }
@@ -205,6 +216,9 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
   eo.keep_orientation = o.keep_orientation;
   eo.gamma_ramp = o.gamma_ramp;
   eo.safe_projection = !o.plain_projection;
+  if (o.inner_iterations >= 0) eo.inner_max_iterations = o.inner_iterations;
+  if (o.inner_f_tol >= 0) eo.inner_f_tol = o.inner_f_tol;
+  if (o.ramp_inner_f_tol >= 0) eo.inner_f_tol_ramp = o.ramp_inner_f_tol;
   eo.progress = make_progress(g);
   const ElasticResult r = elastic_correspondence(A, B, initAB, initBA, eo);
   if (!r.map_AB.bary.allFinite() || !r.Y.allFinite())
@@ -231,7 +245,9 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
                           {"max_outer_iterations", eo.max_outer_iterations},
                           {"energy_tol", eo.energy_tol},
                           {"inner_max_iterations", eo.inner_max_iterations},
-                          {"inner_tol", eo.inner_tol}, {"unit_area", eo.normalize_area},
+                          {"inner_tol", eo.inner_tol}, {"inner_f_tol", eo.inner_f_tol},
+                          {"inner_f_tol_ramp", eo.inner_f_tol_ramp},
+                          {"unit_area", eo.normalize_area},
                           {"keep_orientation", eo.keep_orientation}, {"gamma_ramp", eo.gamma_ramp},
                           {"safe_projection", eo.safe_projection}};
   // Energies per outer iteration, summarized: first, last, and at most 50 samples.

@@ -24,6 +24,9 @@ struct ElasticCliOptions {
   bool gamma_ramp = false;               // ElasticOptions::gamma_ramp
   bool plain_projection = false;         // ElasticOptions::safe_projection = false
   bool keep_worse = false;               // turn the collapse guard off (ElasticOptions::keep_no_worse)
+  int inner_iterations = -1;             // ElasticOptions::inner_max_iterations (default 50)
+  double inner_f_tol = -1;               // ElasticOptions::inner_f_tol (default 1e-9)
+  double ramp_inner_f_tol = -1;          // ElasticOptions::inner_f_tol_ramp (default 0 = inner_f_tol)
 };
 
 // A map file that must map n_source vertices into m_target triangles (exit 2 otherwise).

@@ -673,6 +673,33 @@ BIMDirectionResult bim_map(const BIMSurface& src, const BIMSurface& dst, const B
 }
 
 // ---------------------------------------------------------------------------------------
+// BIMOptions::reverse_candidates: R (src -> dst) becomes the inverse of Rrev (dst -> src),
+// which locates each source vertex on dst's triangulation placed at its images under Rrev
+// (closest point), as the elastic CLI derives Q from P.
+namespace {
+void take_inverse(const BIMSurface& src, const BIMSurface& dst, const BIMDirectionResult& Rrev,
+                  BIMDirectionResult& R) {
+  const Eigen::MatrixXd Y = map_positions(Rrev.map, src.mesh.V, src.F_input);  // dst vertices on src
+  ClosestPoint3 bvh(Y, dst.F_input);
+  const std::vector<ClosestPointResult> cp = bvh.query(src.mesh.V);
+  const int n = src.mesh.num_vertices();
+  BarycentricMap inv;
+  inv.elem.resize(n);
+  inv.bary.resize(n, 3);
+  for (int v = 0; v < n; ++v) {
+    inv.elem(v) = cp[v].elem;
+    const Eigen::Vector3d b = cp[v].bary.head<3>().cwiseMax(0.0);
+    inv.bary.row(v) = b.sum() > 0 ? Eigen::RowVector3d((b / b.sum()).transpose()) : Eigen::RowVector3d(1, 0, 0);
+  }
+  R.own_integrated_confidence = R.integrated_confidence;
+  R.confidence = map_confidence(src.mesh, map_positions(inv, dst.mesh.V, dst.F_input));
+  R.integrated_confidence = R.confidence.dot(src.mass);
+  R.map = inv;
+  R.positions = map_positions(inv, dst.V_input, dst.F_input);
+  R.from_reverse = true;
+}
+}  // namespace
+
 BIMResult blended_intrinsic_maps(const TriMesh& A, const TriMesh& B, const BIMOptions& opt,
                                  const ProgressCallback& progress) {
   auto t0 = Clock::now();
@@ -697,6 +724,12 @@ BIMResult blended_intrinsic_maps(const TriMesh& A, const TriMesh& B, const BIMOp
     std::swap(o2.landmarks_A, o2.landmarks_B);
     out.BA = bim_map(sb, sa, o2, progress);
     for (auto& t : out.BA.timings) out.timings.push_back({"BA/" + t.first, t.second});
+    // The two blends can disagree (a limb swapped one way only); the more confident one
+    // decides and the other direction follows it.
+    if (opt.reverse_candidates) {
+      if (out.BA.integrated_confidence > out.AB.integrated_confidence) take_inverse(sa, sb, out.BA, out.AB);
+      else take_inverse(sb, sa, out.AB, out.BA);
+    }
   }
   out.total_seconds = seconds_since(t0);
   return out;

@@ -313,7 +313,7 @@ bool turns_a_triangle(const Eigen::MatrixXi& F, const double* y0, const double* 
 }
 
 int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bijective,
-                     const ElasticOptions& opt, EnergyParts& parts, int& evaluations) {
+                     const ElasticOptions& opt, double f_tol, EnergyParts& parts, int& evaluations) {
   const int n = int(s.X.rows());
   DeformationObjective obj(s, t, beta, gamma, bijective);
   ElasticLbfgs& L = s.lbfgs;
@@ -362,7 +362,7 @@ int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bij
       double alpha = L.stored == 0 ? std::min(1.0, 1.0 / std::sqrt(-gd)) : 1.0;
       const double c1 = 1e-4;
       const double min_decrease =
-          opt.inner_f_tol > 0 ? opt.inner_f_tol * std::max(1.0, std::abs(f)) : 0.0;
+          f_tol > 0 ? f_tol * std::max(1.0, std::abs(f)) : 0.0;
       bool ok = false;
       double f_new = f;
       EnergyParts p_new;
@@ -417,7 +417,7 @@ int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bij
       parts = p_new;
       ++iterations;
       if (L.g.lpNorm<Eigen::Infinity>() < opt.inner_tol) break;
-      if (opt.inner_f_tol > 0 && f_old - f < opt.inner_f_tol * std::max(1.0, std::abs(f))) break;
+      if (f_tol > 0 && f_old - f < f_tol * std::max(1.0, std::abs(f))) break;
     }
   }
   s.shell.unfreeze_mask();
@@ -629,6 +629,8 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
     const double frac = std::min(1.0, double(k) / double(ramp));
     const double beta = (opt.beta_start + (opt.beta_end - opt.beta_start) * frac) * wscale;
     const double gamma = opt.gamma_ramp ? gamma_full * frac : gamma_full;
+    const double f_tol =
+        k < opt.beta_ramp_iterations && opt.inner_f_tol_ramp > 0 ? opt.inner_f_tol_ramp : opt.inner_f_tol;
     ElasticIterate it;
     it.beta = beta;
     EnergyParts pa, pb;
@@ -636,14 +638,14 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
     projection_step(a, b, beta, gamma, bij, opt.safe_projection);  // P step
     it.time_projection += seconds_since(t0);
     t0 = Clock::now();
-    it.inner_iterations += deformation_step(a, b, beta, gamma, bij, opt, pa, it.inner_evaluations);  // Y step
+    it.inner_iterations += deformation_step(a, b, beta, gamma, bij, opt, f_tol, pa, it.inner_evaluations);  // Y step
     it.time_deformation += seconds_since(t0);
     if (bij) {
       t0 = Clock::now();
       projection_step(b, a, beta, gamma, bij, opt.safe_projection);  // Q step
       it.time_projection += seconds_since(t0);
       t0 = Clock::now();
-      it.inner_iterations += deformation_step(b, a, beta, gamma, bij, opt, pb, it.inner_evaluations);  // Y~ step
+      it.inner_iterations += deformation_step(b, a, beta, gamma, bij, opt, f_tol, pb, it.inner_evaluations);  // Y~ step
       it.time_deformation += seconds_since(t0);
       it.deformation = pa.deformation + pb.deformation;
       it.mismatch = pa.mismatch + pb.mismatch;

@@ -106,6 +106,11 @@ TEST(ElasticCli, SymmetricRunWritesOutputsAndEvaluateReportsSec61Metrics) {
   EXPECT_TRUE(finite_nonneg(e["reversibility"]));
   EXPECT_TRUE(finite_nonneg(e["geodesic_error"]["mean"]));
   EXPECT_TRUE(e.contains("distortion_BA"));
+  // The round trip per vertex over A's bounding-box diagonal (issue 20's camel target).
+  ASSERT_TRUE(e.contains("reversibility_bbox"));
+  EXPECT_TRUE(finite_nonneg(e["reversibility_bbox"]["mean"]));
+  EXPECT_LE(e["reversibility_bbox"]["mean"].get<double>(), e["reversibility_bbox"]["max"].get<double>());
+  EXPECT_LT(e["reversibility_bbox"]["max"].get<double>(), 1.0);
   // The same numbers as the report's (same definitions, same unit-area normalization).
   EXPECT_NEAR(d["conformal_distortion"]["mean"].get<double>(), i1["conformal_distortion_mean"].get<double>(), 1e-9);
   EXPECT_NEAR(d["mean_curvature_error"].get<double>(), i1["mean_curvature_error"].get<double>(), 1e-9);

@@ -4,9 +4,10 @@
 // The quality sweep over seeds and the 12,500-vertex timing are DISABLED_ tests (too slow
 // for the suite); run them with
 //   test_surface --gtest_also_run_disabled_tests --gtest_filter='BimBench.*'
-// (environment: BIM_SEEDS=10, BIM_VERTICES=2000).
+// (environment: BIM_SEEDS=10, BIM_VERTICES=2000, BIM_REVERSE=0: BIMOptions::reverse_candidates).
 #include "shapemap/eval/surface_metrics.h"
 #include "shapemap/generate.h"
+#include "shapemap/maps.h"
 #include "shapemap/surface/bim.h"
 #include <gtest/gtest.h>
 #include <chrono>
@@ -25,6 +26,8 @@ Outcome run_pair(std::uint64_t seed, PairKind kind, int vertices, bool print_sta
   GeneratedPair p = make_creature_pair(seed, kind, vertices);
   BIMOptions o;
   o.seed = seed;
+  // BIM_REVERSE=1: both directions, the less confident one replaced by the other's inverse.
+  if (const char* v = std::getenv("BIM_REVERSE")) o.symmetric = o.reverse_candidates = std::atoi(v) != 0;
   auto t0 = std::chrono::steady_clock::now();
   BIMResult r = blended_intrinsic_maps(p.A, p.B, o);
   Outcome out;
@@ -60,6 +63,26 @@ TEST(BimCreatures, NearIsometricPair) {
 TEST(BimCreatures, NonIsometricPair) {
   Outcome o = run_pair(2, PairKind::NonIsometric, 1500);
   EXPECT_GE(o.within, 0.75);
+}
+
+// BIMOptions::reverse_candidates: the more confident direction keeps its blend, the other
+// takes its inverse (a valid map, the own blend's confidence kept for the report).
+TEST(BimCreatures, ReverseCandidatesFollowTheMoreConfidentDirection) {
+  GeneratedPair p = make_creature_pair(2, PairKind::NonIsometric, 600);
+  BIMOptions o;
+  o.seed = 2;
+  o.symmetric = true;
+  o.reverse_candidates = true;
+  const BIMResult r = blended_intrinsic_maps(p.A, p.B, o);
+  ASSERT_NE(r.AB.from_reverse, r.BA.from_reverse);
+  const BIMDirectionResult& keep = r.AB.from_reverse ? r.BA : r.AB;
+  const BIMDirectionResult& follow = r.AB.from_reverse ? r.AB : r.BA;
+  EXPECT_LE(follow.own_integrated_confidence, keep.integrated_confidence);
+  EXPECT_GT(follow.integrated_confidence, 0.0);
+  EXPECT_NO_THROW(validate_map(r.AB.map, p.A.num_vertices(), p.B.num_faces(), 3, "AB"));
+  EXPECT_NO_THROW(validate_map(r.BA.map, p.B.num_vertices(), p.A.num_faces(), 3, "BA"));
+  SurfaceErrorCurve c = surface_map_error(r.AB.map, p.truth_AB, p.B.V, p.B.F);
+  EXPECT_GE(c.within_0_1, 0.75);
 }
 
 TEST(BimBench, DISABLED_QualitySweep) {

@@ -462,3 +462,28 @@ TEST(Elastic, SafeProjectionNeverFolds) {
   const ElasticResult plain = elastic_correspondence(A, B, initAB, initBA, o);
   EXPECT_GT(plain.history.front().P_folds.bad(), 0);  // the plain argmin folds here
 }
+
+// ElasticOptions::inner_f_tol_ramp (issue 20 speed option): a looser inner stop during the
+// beta ramp costs fewer evaluations there, leaves the iterations after the ramp on
+// inner_f_tol, and is the default run exactly when 0.
+TEST(Elastic, RampInnerToleranceOnlyLoosensTheRamp) {
+  TriMesh A = bumpy_sphere(10, 14, 0.1, 0.0);
+  TriMesh B = bumpy_sphere(11, 13, 0.12, 0.7);
+  BarycentricMap P = perturb(project(A.V, B), B, 0.02), Q = perturb(project(B.V, A), A, 0.02);
+  ElasticOptions o;
+  o.max_outer_iterations = 8;
+  o.beta_ramp_iterations = 4;
+  o.energy_tol = 0;
+  ElasticResult r0 = elastic_correspondence(A, B, P, Q, o);
+  o.inner_f_tol_ramp = 1e-4;
+  ElasticResult r1 = elastic_correspondence(A, B, P, Q, o);
+  ASSERT_EQ(r0.history.size(), 8u);
+  ASSERT_EQ(r1.history.size(), 8u);
+  int e0 = 0, e1 = 0;
+  for (int k = 0; k < 4; ++k) e0 += r0.history[k].inner_evaluations, e1 += r1.history[k].inner_evaluations;
+  EXPECT_LT(e1, e0);
+  for (const auto& it : r1.history) EXPECT_TRUE(std::isfinite(it.energy));
+  o.inner_f_tol_ramp = 0;
+  ElasticResult r2 = elastic_correspondence(A, B, P, Q, o);
+  EXPECT_EQ((r0.Y - r2.Y).cwiseAbs().maxCoeff(), 0.0);
+}

@@ -51,6 +51,11 @@ struct BIMOptions {
   double consistency_skip = 0.02;   // skip P_even points where c_i c_j < this (their term is < this)
   // --- Sec. 7: blend and output
   bool symmetric = false;           // also the map B -> A
+  // With symmetric: the direction whose blend has the lower integrated confidence takes the
+  // inverse of the other direction's blend instead (located by closest point on the mapped
+  // surface), so the two maps agree (issue 20: on cat -> lion the lion -> cat blend is the
+  // better one; docs/methods.md).
+  bool reverse_candidates = false;
   // --- general
   std::uint64_t seed = 1;           // random first P_even vertex, candidate pruning
   double heat_t_factor = 1.0;       // heat method t = factor * h^2
@@ -125,6 +130,8 @@ struct BIMDirectionResult {
   std::vector<double> group_confidence;  // integrated confidence of each group's blend
   std::vector<int> group_sizes;
   int selected_group = -1;
+  bool from_reverse = false;        // the inverse of the other direction's blend (reverse_candidates)
+  double own_integrated_confidence = 0;  // with from_reverse: this direction's own blend's
   double best_candidate_confidence = 0;  // best single Möbius map (mean c_i at P_even)
   std::vector<std::pair<std::string, double>> timings;
 };
