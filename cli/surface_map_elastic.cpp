@@ -131,6 +131,7 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
   std::string init_kind;
   const bool bij = !o.injective;
   bool q_given = true;  // false: initBA made below from initAB by closest point
+  std::vector<int> landmarks_A, landmarks_B;  // on the repaired surfaces, for report.html
   if (!args.landmarks.empty()) {
     if (args.landmarks.size() != 2) throw InputError("--landmarks: expected two files LA LB");
     std::vector<int> la = read_landmarks(args.landmarks[0], inA.V);
@@ -142,6 +143,8 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
     bo.name_A = args.A;
     bo.name_B = args.B;
     landmark_initial_maps(A, B, la, lb, initAB, initBA, &bo);
+    landmarks_A = la;
+    landmarks_B = lb;
     init_kind = "landmarks (BIM over landmark triplets)";
   } else if (args.init.empty() || args.init == "bim") {
     BIMOptions bo = args.bim;
@@ -369,9 +372,11 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
   }
   timer.start("pictures");
   const auto figures = surface_map_figures(A, B, r.map_AB, bij ? &r.map_BA : nullptr);
+  const ViewerData viewer =
+      surface_map_viewer_data(A, B, r.map_AB, bij ? &r.map_BA : nullptr, landmarks_A, landmarks_B);
   timer.stop();
   report["timings"] = timer.json();
-  write_reports(out, report, "shapemap surface-map --method elastic", figures);
+  write_reports(out, report, "shapemap surface-map --method elastic", figures, &viewer, &g);
   out.commit();
   info(g, "elastic: " + std::to_string(r.outer_iterations) + " outer iterations, " +
               std::to_string(timer.total()) + " s; wrote " + out.final_path());
