@@ -99,7 +99,9 @@
     H = Math.round(Math.min(620, Math.max(260, W * 0.5)));
     renderer.setSize(W, H);
     wrap.style.height = H + 'px';
-    draw();
+    // Now, not on the next animation frame: browsers hold those back in hidden tabs and in
+    // iframes out of view (the demo's index), and the page should show its views at once.
+    render();
   }
   function draw() {
     if (pending) return;
