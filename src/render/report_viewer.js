@@ -46,9 +46,13 @@
   host.appendChild(legend);
   host.appendChild(help);
 
+  // Multisampling only for small meshes: on a CPU WebGL (SwiftShader) it costs a second or
+  // more on the first frame of a 100k-triangle pair (bench/report_viewer.py).
+  var triangles = 0;
+  for (var name in D.layout) if (/^[FT]_/.test(name)) triangles += D.layout[name].rows;
   var renderer;
   try {
-    renderer = new THREE.WebGLRenderer({antialias: true, preserveDrawingBuffer: true});
+    renderer = new THREE.WebGLRenderer({antialias: triangles < 60000, preserveDrawingBuffer: true});
   } catch (e) {
     return fail('WebGL is not available (' + e.message + ').');
   }
@@ -93,7 +97,7 @@
     v.camera.updateProjectionMatrix();
   }
 
-  var W = 0, H = 0, pending = false;
+  var W = 0, H = 0, pending = 0;  // pending: the id of the requested animation frame
   function resize() {
     W = Math.max(300, host.clientWidth || 800);
     H = Math.round(Math.min(620, Math.max(260, W * 0.5)));
@@ -104,13 +108,14 @@
     render();
   }
   function draw() {
-    if (pending) return;
-    pending = true;
-    requestAnimationFrame(render);
+    if (!pending) pending = requestAnimationFrame(render);
   }
   var labelDivs = [];
   function render() {
-    pending = false;
+    // A frame drawn now makes a requested one redundant (each costs ~0.3 s at 100k triangles
+    // on SwiftShader).
+    if (pending) cancelAnimationFrame(pending);
+    pending = 0;
     var n = views.length, w = Math.floor(W / n), used = 0;
     for (var i = 0; i < n; ++i) {
       var v = views[i];
@@ -143,6 +148,8 @@
       }
     }
     for (; used < labelDivs.length; ++used) labelDivs[used].style.display = 'none';
+    // ms from the start of the page's navigation to the first drawn frame (bench/report_viewer.py).
+    if (!window.SHAPEMAP_VIEWER_FRAMES) window.SHAPEMAP_VIEWER_FIRST_DRAW_MS = performance.now();
     window.SHAPEMAP_VIEWER_FRAMES++;
     window.SHAPEMAP_VIEWER_STATUS = 'drawn';
   }
