@@ -54,8 +54,9 @@ SurfaceMapDirection viewer_direction(const TriMesh& S, const TriMesh& T, const B
 
 ViewerData surface_map_viewer_data(const TriMesh& A, const TriMesh& B, const BarycentricMap& map_AB,
                                    const BarycentricMap* map_BA, const std::vector<int>& landmarks_A,
-                                   const std::vector<int>& landmarks_B) {
-  const SurfaceMapDirection ab = viewer_direction(A, B, map_AB);
+                                   const std::vector<int>& landmarks_B, const Eigen::VectorXd* error_AB) {
+  SurfaceMapDirection ab = viewer_direction(A, B, map_AB);
+  if (error_AB) ab.vertex_error = *error_AB;
   if (!map_BA) return surface_map_viewer(A, B, ab, nullptr, landmarks_A, landmarks_B);
   const SurfaceMapDirection ba = viewer_direction(B, A, *map_BA);
   return surface_map_viewer(A, B, ab, &ba, landmarks_A, landmarks_B);

@@ -23,9 +23,11 @@ std::vector<ReportFigure> volume_map_figures(const TetMesh& A, const Eigen::Matr
 std::vector<ReportFigure> ball_figures(const TetMesh& mesh, const Eigen::MatrixXd& ball);
 
 // The interactive views of report.html (render/report_viewer.h) of a surface map: images of
-// the vertices and the flipped / collapsed faces as surface_distortion counts them.
+// the vertices and the flipped / collapsed faces as surface_distortion counts them; error_AB
+// (optional, empty = none): per vertex of A its error against the ground truth, -1 = unknown.
 ViewerData surface_map_viewer_data(const TriMesh& A, const TriMesh& B, const BarycentricMap& map_AB,
                                    const BarycentricMap* map_BA, const std::vector<int>& landmarks_A = {},
-                                   const std::vector<int>& landmarks_B = {});
+                                   const std::vector<int>& landmarks_B = {},
+                                   const Eigen::VectorXd* error_AB = nullptr);
 
 }  // namespace shapemap::cli

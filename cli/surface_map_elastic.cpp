@@ -88,7 +88,8 @@ BarycentricMap read_checked_map(const std::string& path, int n_source, int m_tar
 }
 
 nlohmann::json surface_map_metrics_json(const TriMesh& S, const TriMesh& T, const BarycentricMap& P,
-                                        const BarycentricMap* Q, const BarycentricMap* truth) {
+                                        const BarycentricMap* Q, const BarycentricMap* truth,
+                                        Eigen::VectorXd* vertex_error) {
   const SurfaceDistortion d = surface_distortion(S, T, P);
   nlohmann::json j;
   j["conformal_distortion_mean"] = d.conformal_mean;      // Sec. 6.1, MIPS - 2
@@ -104,6 +105,10 @@ nlohmann::json surface_map_metrics_json(const TriMesh& S, const TriMesh& T, cons
     j["geodesic_error_mean"] = c.mean;
     j["geodesic_error_max"] = c.max;
     j["geodesic_within_0_1"] = c.within_0_1;
+    if (vertex_error) {
+      *vertex_error = Eigen::VectorXd::Constant(S.num_vertices(), -1.0);
+      for (int k = 0; k < c.evaluated.size(); ++k) (*vertex_error)(c.evaluated(k)) = c.errors(k);
+    }
   }
   return j;
 }
@@ -325,8 +330,9 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
   nlohmann::json metrics;
   metrics["initial"]["AB"] = surface_map_metrics_json(A, B, initAB, bij ? &initBA : nullptr,
                                              has_truth ? &truth : nullptr);
+  Eigen::VectorXd error_AB;  // per vertex of A, with --truth (report.html)
   metrics["final"]["AB"] = surface_map_metrics_json(A, B, r.map_AB, bij ? &r.map_BA : nullptr,
-                                           has_truth ? &truth : nullptr);
+                                           has_truth ? &truth : nullptr, &error_AB);
   if (bij) {
     metrics["initial"]["BA"] = surface_map_metrics_json(B, A, initBA, &initAB, nullptr);
     metrics["final"]["BA"] = surface_map_metrics_json(B, A, r.map_BA, &r.map_AB, nullptr);
@@ -373,7 +379,7 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
   timer.start("pictures");
   const auto figures = surface_map_figures(A, B, r.map_AB, bij ? &r.map_BA : nullptr);
   const ViewerData viewer =
-      surface_map_viewer_data(A, B, r.map_AB, bij ? &r.map_BA : nullptr, landmarks_A, landmarks_B);
+      surface_map_viewer_data(A, B, r.map_AB, bij ? &r.map_BA : nullptr, landmarks_A, landmarks_B, &error_AB);
   timer.stop();
   report["timings"] = timer.json();
   write_reports(out, report, "shapemap surface-map --method elastic", figures, &viewer, &g);

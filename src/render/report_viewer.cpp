@@ -147,7 +147,16 @@ ViewerData surface_map_viewer(const TriMesh& A, const TriMesh& B, const SurfaceM
       }
       if (flipped + collapsed > 0) d.add("flags_" + tag, m.face_flags);
     }
-    d.meta()["directions"].push_back({{"tag", tag}, {"flipped", flipped}, {"collapsed", collapsed}});
+    nlohmann::json dir = {{"tag", tag}, {"flipped", flipped}, {"collapsed", collapsed}};
+    if (m.vertex_error.size() == m.images.rows()) {
+      d.add("err_" + tag, Eigen::MatrixXd(m.vertex_error));
+      Eigen::VectorXd known = m.vertex_error;
+      for (int i = 0; i < known.size(); ++i)
+        if (known(i) < 0) known(i) = NAN;  // not evaluated: out of the colour range
+      dir["error_p95"] = percentile(known, 0.95);
+      dir["error_max"] = known.size() ? percentile(known, 1.0) : 0.0;
+    }
+    d.meta()["directions"].push_back(dir);
   };
   direction("AB", AB, A.num_faces());
   if (BA) direction("BA", *BA, B.num_faces());

@@ -211,6 +211,21 @@
         '  gl_FragColor = vec4(col * shade(vN), 1.0); }'
     });
   }
+  // Per-vertex error against the ground truth: blue 0, red >= errMax, grey where unknown (< 0).
+  function errorMaterial(errMax) {
+    return new THREE.ShaderMaterial({
+      uniforms: {errMax: {value: Math.max(errMax, 1e-12)}},
+      side: THREE.DoubleSide,
+      polygonOffset: true, polygonOffsetFactor: 1, polygonOffsetUnits: 1,
+      vertexShader: 'attribute float err; varying vec3 vN; varying float vE;\n' +
+        'void main() { vN = normalMatrix * normal; vE = err; gl_Position = projectionMatrix * modelViewMatrix * vec4(position, 1.0); }',
+      fragmentShader: 'uniform float errMax; varying vec3 vN; varying float vE;\n' + LIGHT +
+        'void main() { float t = clamp(vE / errMax, 0.0, 1.0);\n' +
+        '  vec3 col = vE < 0.0 ? vec3(0.7) : (t < 0.5 ? mix(vec3(0.15, 0.3, 0.9), vec3(1.0, 0.95, 0.3), 2.0 * t)\n' +
+        '                                           : mix(vec3(1.0, 0.95, 0.3), vec3(0.85, 0.1, 0.1), 2.0 * t - 1.0));\n' +
+        '  gl_FragColor = vec4(col * shade(vN), 1.0); }'
+    });
+  }
   // Per-vertex colours (the volume cuts: one colour per face).
   var colorMaterial = new THREE.ShaderMaterial({
     side: THREE.DoubleSide,
@@ -275,7 +290,9 @@
     var dirSel = dirs.length > 1 ? addControl('map', select(dirs.map(function (d) {
       return [d.tag, d.tag === 'AB' ? 'A \u2192 B (map_AB)' : 'B \u2192 A (map_BA)'];
     }))) : null;
-    var modeSel = addControl('texture', select([['1', 'checkerboard \u00d7 colour'], ['0', 'colour field']]));
+    var modes = [['1', 'checkerboard \u00d7 colour'], ['0', 'colour field']];
+    if (D.layout.err_AB) modes.push(['e', 'A: error vs ground truth']);
+    var modeSel = addControl('texture', select(modes));
     function build() {
       var tag = dirSel ? dirSel.value : 'AB';
       var d = dirs.filter(function (x) { return x.tag === tag; })[0];
@@ -290,12 +307,21 @@
       right.center = lo.clone().add(hi).multiplyScalar(0.5); right.radius = hi.distanceTo(lo) / 2;
       left.title = tName + ' (target): colour field of its positions';
       right.title = sName + ' (source): ' + tName + "'s field pulled back through map_" + tag;
-      var mat = textureMaterial(T.bbox);
-      mat.uniforms.checker.value = +modeSel.value;
+      var mat = textureMaterial(T.bbox), err = modeSel.value === 'e' ? buf('err_' + tag) : null;
+      mat.uniforms.checker.value = modeSel.value === '0' ? 0 : 1;
       left.scene.add(new THREE.Mesh(surfaceGeometry(T.V, T.F, T.V), mat));
-      right.scene.add(new THREE.Mesh(surfaceGeometry(S.V, S.F, X), mat));
+      var src = surfaceGeometry(S.V, S.F, X);
+      if (err) src.setAttribute('err', new THREE.BufferAttribute(err, 1));
+      right.scene.add(new THREE.Mesh(src, err ? errorMaterial(d.error_p95) : mat));
       var flags = buf('flags_' + tag);
       var text = 'map_' + tag + ': ' + d.flipped + ' flipped (red), ' + d.collapsed + ' collapsed (magenta) triangles of ' + sName + '.';
+      if (err) {
+        right.title = sName + ': geodesic error of map_' + tag + ' vs the ground truth';
+        text += ' Error per vertex (geodesic distance / sqrt(area)): blue 0, yellow ' + (d.error_p95 / 2).toPrecision(2) +
+          ', red \u2265 ' + d.error_p95.toPrecision(2) + ' (95th percentile; max ' + d.error_max.toPrecision(2) + '); grey: not evaluated.';
+      } else if (modeSel.value === 'e') {
+        text += ' (The ground-truth error is of map_AB only.)';
+      }
       if (flags) {
         var fm = subsetMesh(S.V, S.F, flags, 1, 0xdd0000), cm = subsetMesh(S.V, S.F, flags, 2, 0xdd00dd);
         if (fm) right.scene.add(fm);

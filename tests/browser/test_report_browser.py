@@ -92,7 +92,7 @@ def outputs():
         f.write("".join("%.17g %.17g %.17g\n" % tuple(truth[i]) for i in ids))
     fast_bim = ["--samples", "64", "--candidates", "20", "--features", "6"]
     shapemap("surface-map", P + "/A.obj", P + "/B.obj", "-o", D + "/bim", "--method", "bim", "--symmetric",
-             "--landmarks", root + "/LA.txt", root + "/LB.txt", *fast_bim)
+             "--landmarks", root + "/LA.txt", root + "/LB.txt", "--truth", P + "/truth_AB.txt", *fast_bim)
     shapemap("volume-map", P + "/A.vtk", P + "/B.vtk", "-o", D + "/volume", "--max-iterations", "2",
              "--surface-map", D + "/bim/map_AB.txt", D + "/bim/map_BA.txt",
              "--surface-map-meshes", P + "/A.obj", P + "/B.obj")
@@ -220,6 +220,12 @@ def test_surface_map_report(browser, outputs):
         " && e.style.display !== 'none').length")
     assert labels == 6
     drag(browser, 120)
+    # A coloured by its error against the ground truth (--truth).
+    browser.execute_script("const s = document.querySelectorAll('#views select')[1]; s.value = 'e';"
+                           "s.dispatchEvent(new Event('change'));")
+    time.sleep(0.3)
+    views_drawn(browser)
+    assert "geodesic error" in browser.find_element(By.ID, "views").text
     # The other direction (map_BA) draws as well.
     browser.execute_script("const s = document.querySelector('#views select'); s.value = 'BA';"
                            "s.dispatchEvent(new Event('change'));")

@@ -96,13 +96,17 @@ TEST(ReportViewer, SurfaceDataKeepsOnlyFlagsThatAreSet) {
   A.V = Eigen::MatrixXd::Identity(3, 3);
   A.F.resize(1, 3);
   A.F << 0, 1, 2;
-  SurfaceMapDirection ab{A.V, {0}};
+  SurfaceMapDirection ab{A.V, {0}, Eigen::Vector3d(0.1, -1, 0.3)};
   SurfaceMapDirection ba{A.V, {1}};
   const nlohmann::json j = parse_script(surface_map_viewer(A, A, ab, &ba, {0, 2}, {1, 7}).script());
   EXPECT_FALSE(j["buffers"].contains("flags_AB"));  // nothing to highlight
   EXPECT_TRUE(j["buffers"].contains("flags_BA"));
   EXPECT_EQ(j["meta"]["directions"][1]["flipped"], 1);
   EXPECT_EQ(j["meta"]["landmarks"].size(), 1u);  // vertex 7 does not exist: the pair is dropped
+  // Errors against the truth: -1 (not evaluated) stays out of the colour range.
+  EXPECT_EQ(values<float>(j, "err_AB"), (std::vector<float>{0.1f, -1.0f, 0.3f}));
+  EXPECT_DOUBLE_EQ(j["meta"]["directions"][0]["error_max"].get<double>(), 0.3);
+  EXPECT_FALSE(j["buffers"].contains("err_BA"));
 }
 
 TEST(ReportViewer, TableCellsCarryTheJsonPointerOfTheirValue) {

@@ -44,10 +44,12 @@ class ViewerData {
 
 // One direction of a surface map S -> T for the viewer: the images of S's vertices on T
 // (n_S×3) and, optionally, per S face 0 fine / 1 flipped / 2 collapsed (fold_counts in
-// eval/surface_distortion.h).
+// eval/surface_distortion.h) and per S vertex the error against a ground truth (-1: not
+// evaluated).
 struct SurfaceMapDirection {
   Eigen::MatrixXd images;
   std::vector<unsigned char> face_flags;
+  Eigen::VectorXd vertex_error;
 };
 
 // A -> B (and B -> A if BA is given). Landmarks: vertex indices of A and B, paired by
