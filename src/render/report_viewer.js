@@ -362,17 +362,19 @@
   // Tet faces (opposite each corner) and the tet across each one (-1: boundary), found by
   // sorting the faces by their vertex triple.
   function tetNeighbours(T, n) {
-    var m = T.length / 4, keys = new Float64Array(4 * m), order = new Uint32Array(4 * m), nb = new Int32Array(4 * m).fill(-1);
+    var m = T.length / 4, order = new Uint32Array(4 * m), nb = new Int32Array(4 * m).fill(-1);
+    // Numeric keys are exact while n^3 < 2^53 (n < 208k vertices); strings beyond.
+    var keys = n < 200000 ? new Float64Array(4 * m) : new Array(4 * m);
     for (var t = 0; t < m; ++t)
       for (var k = 0; k < 4; ++k) {
         var a = T[4 * t + (k + 1) % 4], b = T[4 * t + (k + 2) % 4], c = T[4 * t + (k + 3) % 4], x;
         if (a > b) { x = a; a = b; b = x; }
         if (b > c) { x = b; b = c; c = x; }
         if (a > b) { x = a; a = b; b = x; }
-        keys[4 * t + k] = (a * n + b) * n + c;  // exact below 2^53: n < 200k vertices
+        keys[4 * t + k] = n < 200000 ? (a * n + b) * n + c : a + ',' + b + ',' + c;
         order[4 * t + k] = 4 * t + k;
       }
-    order.sort(function (i, j) { return keys[i] - keys[j]; });
+    order.sort(function (i, j) { return keys[i] < keys[j] ? -1 : keys[i] > keys[j] ? 1 : 0; });
     for (var i = 0; i + 1 < order.length; ++i)
       if (keys[order[i]] === keys[order[i + 1]]) {
         nb[order[i]] = order[i + 1] >> 2;
