@@ -42,7 +42,8 @@ Command register_ball(CLI::App& app, GlobalOptions& g) {
     TetMesh ball;
     ball.V = r.f;
     ball.T = mesh.T;
-    write_vtk(out.path("ball.vtk"), ball, {}, {{"D_V", ball_volume_distortion(mesh.V, mesh.T, r.f)}});
+    const Eigen::VectorXd D_V = ball_volume_distortion(mesh.V, mesh.T, r.f);
+    write_vtk(out.path("ball.vtk"), ball, {}, {{"D_V", D_V}});
     if (in.changed()) write_volume(out.path("input.vtk"), mesh);
     timer.stop();
     nlohmann::json j = report_header(g, "ball");
@@ -57,9 +58,10 @@ Command register_ball(CLI::App& app, GlobalOptions& g) {
     j["optimization"] = ball_result_json(r);
     timer.start("pictures");
     const auto figures = ball_figures(mesh, r.f);
+    const ViewerData viewer = ball_viewer(mesh, r.f, D_V);
     timer.stop();
     j["timings"] = timer.json();
-    write_reports(out, j, "shapemap ball", figures);
+    write_reports(out, j, "shapemap ball", figures, &viewer, &g);
     out.commit();
     info(g, "ball: " + std::to_string(mesh.num_vertices()) + " vertices, " + std::to_string(mesh.num_tets()) +
                 " tets; E_I " + std::to_string(r.energy_vsem) + " -> " + std::to_string(r.energy_final) +

@@ -4,7 +4,8 @@
 // elastic refinement -> tetrahedralize -> automatic symmetric volume map -> ball
 // parameterization -> registration through the ball -> symmetric volume map initialized by
 // that registration; evaluates each map against the ground truth, prints a summary table
-// and writes DIR/index.html.
+// and writes DIR/index.html: the summary, then each stage's interactive report (its 3D views
+// and metrics) in one page. --index-only rewrites index.html from the folders already there.
 #include "common.h"
 #include "shapemap/error.h"
 #include "shapemap/io.h"
@@ -57,7 +58,20 @@ struct DemoArgs {
   std::string out = "demo-output";
   int vertices = 2500;
   int tets = 12000;  // per volume
+  bool index_only = false;
 };
+
+std::string escape(const std::string& s) {
+  std::string o;
+  for (char c : s) {
+    if (c == '<') o += "&lt;";
+    else if (c == '>') o += "&gt;";
+    else if (c == '&') o += "&amp;";
+    else if (c == '"') o += "&quot;";
+    else o += c;
+  }
+  return o;
+}
 
 int run_demo(const DemoArgs& a, const GlobalOptions& g) {
   fs::create_directories(a.out);
@@ -102,6 +116,12 @@ int run_demo(const DemoArgs& a, const GlobalOptions& g) {
   };
   int failures = 0;
   for (auto& s : steps) {
+    if (a.index_only) {
+      // Not run now: the step counts as done when its output is there.
+      const bool eval = s.name.find("eval") != std::string::npos;
+      s.code = fs::exists(D + "/" + s.folder + (eval ? "/evaluation.json" : "/report.json")) ? 0 : -1;
+      continue;
+    }
     std::vector<std::string> args = common;
     args.insert(args.end(), s.args.begin(), s.args.end());
     if (!g.quiet) std::cerr << "== " << s.name << ": " << s.what << "\n";
@@ -123,6 +143,11 @@ int run_demo(const DemoArgs& a, const GlobalOptions& g) {
   auto time_of = [&](const std::string& name) {
     for (auto& s : steps)
       if (s.name == name) {
+        if (a.index_only) {
+          // The command's own total (report.json) when the step was not run now.
+          const std::string t = pick(rep(s.folder), {"/timings/total"}, "%.1f");
+          return s.code == 0 ? t + (t == "-" ? "" : " s") : std::string("not run");
+        }
         char buf[32];
         std::snprintf(buf, sizeof buf, "%.1f s%s", s.seconds, s.code == 0 ? "" : " FAILED");
         return std::string(buf);
@@ -163,14 +188,26 @@ int run_demo(const DemoArgs& a, const GlobalOptions& g) {
     table << line;
   }
   std::cout << table.str();
-  // index.html linking every stage's report.
+  // index.html: the summary, then every stage's report.html (3D views and metrics) inline.
+  // Each report keeps its own folder and scripts; an iframe shows it as it is, from file://.
   std::ostringstream html;
-  html << "<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>shapemap demo</title></head><body>"
-       << "<h1>shapemap demo</h1><pre>" << table.str() << "</pre><ul>";
-  for (auto& s : steps)
-    if (fs::exists(D + "/" + s.folder + "/report.html") && s.name.find("eval") == std::string::npos)
-      html << "<li><a href=\"" << s.folder << "/report.html\">" << s.name << "</a>: " << s.what << "</li>";
-  html << "</ul></body></html>\n";
+  html << "<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>shapemap demo</title><style>"
+       << "body{font-family:sans-serif;margin:1em 2em}table{border-collapse:collapse}"
+       << "th,td{border:1px solid #ccc;padding:2px 8px;text-align:left;font-size:14px}th{background:#f3f3f3}"
+       << "iframe{width:100%;height:820px;border:1px solid #bbb}section{margin:1.5em 0}</style></head><body>"
+       << "<h1>shapemap demo</h1><table id=\"summary\"><tr><th>method</th><th>time</th><th>key metrics</th></tr>";
+  for (auto& r : rows)
+    html << "<tr><td>" << escape(r.method) << "</td><td>" << escape(r.time) << "</td><td>" << escape(r.metrics)
+         << "</td></tr>";
+  html << "</table>";
+  for (auto& s : steps) {
+    if (s.name.find("eval") != std::string::npos || !fs::exists(D + "/" + s.folder + "/report.html")) continue;
+    const std::string page = s.folder + "/report.html";
+    html << "<section><h2>" << escape(s.name) << "</h2><p>" << escape(s.what) << " (" << escape(time_of(s.name))
+         << "; <a href=\"" << page << "\">open alone</a>)</p><iframe src=\"" << page << "\" title=\""
+         << escape(s.name) << "\"></iframe></section>";
+  }
+  html << "</body></html>\n";
   write_text_atomic(D + "/index.html", html.str());
   write_text_atomic(D + "/summary.txt", table.str());
   if (!g.quiet) std::cerr << "demo: outputs in " << D << "/ (open " << D << "/index.html)\n";
@@ -186,6 +223,8 @@ Command register_demo(CLI::App& app, GlobalOptions& g) {
   c.app->add_option("-o,--output", a->out, "Output folder")->capture_default_str();
   c.app->add_option("--vertices", a->vertices, "Vertices per generated surface")->check(CLI::Range(500, 50000));
   c.app->add_option("--tets", a->tets, "Tets per generated volume")->check(CLI::Range(1000, 500000));
+  c.app->add_flag("--index-only", a->index_only,
+                  "Run nothing: rewrite OUT/index.html (and summary.txt) from the stage folders already in OUT");
   c.run = [a, &g] { return run_demo(*a, g); };
   return c;
 }

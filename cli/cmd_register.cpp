@@ -119,9 +119,10 @@ Command register_register(CLI::App& app, GlobalOptions& g) {
     auto figures = volume_map_figures(A, r.A_on_B, nullptr, nullptr);
     for (auto& f : ball_figures(B, r.ball_B.f)) figures.push_back({"ball_B.png", "Ball of B: " + f.caption, f.image});
     for (auto& f : ball_figures(A, r.ball_A.f)) figures.push_back({"ball_A.png", "Ball of A: " + f.caption, f.image});
+    const ViewerData viewer = volume_map_viewer(A, r.A_on_B, &B, &r.B_on_A);
     timer.stop();
     j["timings"] = timer.json();
-    write_reports(out, j, "shapemap register --via ball", figures);
+    write_reports(out, j, "shapemap register --via ball", figures, &viewer, &g);
     out.commit();
     info(g, "register: d(phi) = " + std::to_string(r.d_phi) + " (" + std::to_string(100 * r.d_phi_relative) +
                 "% of A's bbox diagonal) -> " + out.final_path() + "/map_AB.txt");

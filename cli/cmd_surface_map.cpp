@@ -159,14 +159,17 @@ int run_bim(const SurfaceMapArgs& a, const ElasticCliOptions& eo, const GlobalOp
   // The same map metrics as the elastic method (and its geodesic error with --truth), of
   // the surfaces BIM ran on.
   timer.start("metrics");
+  Eigen::VectorXd error_AB;  // per vertex of A, with --truth (report.html)
   j["metrics"]["AB"] = surface_map_metrics_json(rA.mesh, rB.mesh, r.AB.map, a.symmetric ? &r.BA.map : nullptr,
-                                                has_truth ? &truth : nullptr);
+                                                has_truth ? &truth : nullptr, &error_AB);
   if (a.symmetric) j["metrics"]["BA"] = surface_map_metrics_json(rB.mesh, rA.mesh, r.BA.map, &r.AB.map, nullptr);
   timer.start("pictures");
   const auto figures = surface_map_figures(rA.mesh, rB.mesh, r.AB.map, a.symmetric ? &r.BA.map : nullptr);
+  const ViewerData viewer = surface_map_viewer_data(rA.mesh, rB.mesh, r.AB.map, a.symmetric ? &r.BA.map : nullptr,
+                                                    o.landmarks_A, o.landmarks_B, &error_AB);
   timer.stop();
   j["timings"] = timer.json();
-  write_reports(out, j, "shapemap surface-map --method bim", figures);
+  write_reports(out, j, "shapemap surface-map --method bim", figures, &viewer, &g);
   out.commit();
   info(g, "surface-map: integrated confidence " + std::to_string(r.AB.integrated_confidence) + ", " +
               std::to_string(r.AB.selected.size()) + " blended maps of " + std::to_string(r.AB.num_candidates) +

@@ -402,9 +402,10 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
                               {"max_snap_BA", snap21 / bbox_diagonal(A.V)}};
     timer.start("pictures");
     const auto figures = volume_map_figures(A, r.X12, &B, &r.X21);
+    const ViewerData viewer = volume_map_viewer(A, r.X12, &B, &r.X21);
     timer.stop();
     j["timings"] = timer.json();
-    write_reports(out, j, "shapemap volume-map", figures);
+    write_reports(out, j, "shapemap volume-map", figures, &viewer, &g);
     out.commit();
     info(g, "volume-map: n_inv " + std::to_string(m12.n_inv) + " / " + std::to_string(m21.n_inv) +
                 ", d_avg^ " + std::to_string(m12.d_avg) + " / " + std::to_string(m21.d_avg) +

@@ -303,14 +303,22 @@ void write_json(const std::string& path, const nlohmann::json& j) {
 }
 
 void write_reports(const OutputDir& out, const nlohmann::json& report, const std::string& title,
-                   const std::vector<ReportFigure>& figures) {
+                   const std::vector<ReportFigure>& figures, const ViewerData* viewer, const GlobalOptions* g) {
   write_json(out.path("report.json"), report);
   std::vector<Figure> figs;
   for (auto& f : figures) {
     write_png(out.path(f.file), f.image);
     figs.push_back({f.caption, f.image});
   }
-  write_report_html(out.path("report.html"), title, report, figs);
+  if (viewer) {
+    write_text_atomic(out.path("report_data.js"), viewer->script());
+    write_text_atomic(out.path("report_viewer.js"), report_viewer_js());
+    // Without three.js the page still opens and says why the 3D views are missing.
+    if (!copy_three_js(out.path("three.min.js")) && g)
+      info(*g, "note: three.min.js not found (install libjs-three or set SHAPEMAP_THREE_JS); report.html "
+               "shows the pictures without the 3D views");
+  }
+  write_report_html(out.path("report.html"), title, report, figs, viewer != nullptr);
 }
 
 int not_built(const std::string& what) {

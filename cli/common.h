@@ -5,6 +5,7 @@
 #include "shapemap/repair.h"
 #include "shapemap/volume/tetrahedralize.h"
 #include "shapemap/render/image.h"
+#include "shapemap/render/report_viewer.h"
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 #include <chrono>
@@ -161,14 +162,17 @@ Command register_check(CLI::App& app, GlobalOptions& g);
 // (which scripts the subcommands) both go through it.
 int run(const std::vector<std::string>& args);
 
-// Writes report.json and, beside it, report.html with the given pictures (self-contained).
-// Each figure (caption, picture) is also saved as a PNG named by `file` in OUT.
+// Writes report.json and, beside it, report.html with the given pictures (embedded).
+// Each figure (caption, picture) is also saved as a PNG named by `file` in OUT. With a
+// viewer, report.html also has the interactive 3D views: report_data.js, report_viewer.js and
+// three.min.js are written beside it (render/report_viewer.h).
 struct ReportFigure {
   std::string file, caption;
   Image image;
 };
 void write_reports(const OutputDir& out, const nlohmann::json& report, const std::string& title,
-                   const std::vector<ReportFigure>& figures = {});
+                   const std::vector<ReportFigure>& figures = {}, const ViewerData* viewer = nullptr,
+                   const GlobalOptions* g = nullptr);
 
 // For subcommands whose method is not built yet: message, exit 1.
 int not_built(const std::string& what);

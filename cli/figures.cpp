@@ -1,5 +1,6 @@
 #include "figures.h"
 
+#include "shapemap/eval/surface_distortion.h"
 #include "shapemap/render/scenes.h"
 
 namespace shapemap::cli {
@@ -37,6 +38,28 @@ std::vector<ReportFigure> volume_map_figures(const TetMesh& A, const Eigen::Matr
 std::vector<ReportFigure> ball_figures(const TetMesh& mesh, const Eigen::MatrixXd& ball) {
   return {{"ball.png", "The ball cut open, coloured by a 3D checkerboard of the input positions (folded tets red)",
            render_ball(mesh, ball)}};
+}
+
+namespace {
+SurfaceMapDirection viewer_direction(const TriMesh& S, const TriMesh& T, const BarycentricMap& P) {
+  SurfaceMapDirection d;
+  d.images = map_positions(P, T.V, T.F);
+  // Flags exactly as surface_distortion counts them (report.json): on unit-area copies.
+  const Eigen::MatrixXd X = unit_area_normalization(S).apply(S.V), Xt = unit_area_normalization(T).apply(T.V);
+  fold_counts(X, S.F, map_positions(P, Xt, T.F), face_normals(Xt, T.F), P.elem,
+              SurfaceDistortionOptions().degenerate_tol, &d.face_flags);
+  return d;
+}
+}  // namespace
+
+ViewerData surface_map_viewer_data(const TriMesh& A, const TriMesh& B, const BarycentricMap& map_AB,
+                                   const BarycentricMap* map_BA, const std::vector<int>& landmarks_A,
+                                   const std::vector<int>& landmarks_B, const Eigen::VectorXd* error_AB) {
+  SurfaceMapDirection ab = viewer_direction(A, B, map_AB);
+  if (error_AB) ab.vertex_error = *error_AB;
+  if (!map_BA) return surface_map_viewer(A, B, ab, nullptr, landmarks_A, landmarks_B);
+  const SurfaceMapDirection ba = viewer_direction(B, A, *map_BA);
+  return surface_map_viewer(A, B, ab, &ba, landmarks_A, landmarks_B);
 }
 
 }  // namespace shapemap::cli

@@ -1,5 +1,6 @@
 // The pictures each map command puts beside its report.json (in report.html and as
-// PNG files): the views the papers judge maps by. One function per kind of result.
+// PNG files): the views the papers judge maps by. One function per kind of result; the
+// interactive views of a surface map too (volume and ball: render/report_viewer.h directly).
 #pragma once
 #include "common.h"
 #include "shapemap/maps.h"
@@ -20,5 +21,13 @@ std::vector<ReportFigure> volume_map_figures(const TetMesh& A, const Eigen::Matr
 
 // Ball parameterization: the ball cut open, coloured by the original positions.
 std::vector<ReportFigure> ball_figures(const TetMesh& mesh, const Eigen::MatrixXd& ball);
+
+// The interactive views of report.html (render/report_viewer.h) of a surface map: images of
+// the vertices and the flipped / collapsed faces as surface_distortion counts them; error_AB
+// (optional, empty = none): per vertex of A its error against the ground truth, -1 = unknown.
+ViewerData surface_map_viewer_data(const TriMesh& A, const TriMesh& B, const BarycentricMap& map_AB,
+                                   const BarycentricMap* map_BA, const std::vector<int>& landmarks_A = {},
+                                   const std::vector<int>& landmarks_B = {},
+                                   const Eigen::VectorXd* error_AB = nullptr);
 
 }  // namespace shapemap::cli

@@ -99,7 +99,8 @@ BarycentricMap read_checked_map(const std::string& path, int n_source, int m_tar
 }
 
 nlohmann::json surface_map_metrics_json(const TriMesh& S, const TriMesh& T, const BarycentricMap& P,
-                                        const BarycentricMap* Q, const BarycentricMap* truth) {
+                                        const BarycentricMap* Q, const BarycentricMap* truth,
+                                        Eigen::VectorXd* vertex_error) {
   const SurfaceDistortion d = surface_distortion(S, T, P);
   nlohmann::json j;
   j["conformal_distortion_mean"] = d.conformal_mean;      // Sec. 6.1, MIPS - 2
@@ -115,6 +116,10 @@ nlohmann::json surface_map_metrics_json(const TriMesh& S, const TriMesh& T, cons
     j["geodesic_error_mean"] = c.mean;
     j["geodesic_error_max"] = c.max;
     j["geodesic_within_0_1"] = c.within_0_1;
+    if (vertex_error) {
+      *vertex_error = Eigen::VectorXd::Constant(S.num_vertices(), -1.0);
+      for (int k = 0; k < c.evaluated.size(); ++k) (*vertex_error)(c.evaluated(k)) = c.errors(k);
+    }
   }
   return j;
 }
@@ -142,6 +147,7 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
   std::string init_kind;
   const bool bij = !o.injective;
   bool q_given = true;  // false: initBA made below from initAB by closest point
+  std::vector<int> landmarks_A, landmarks_B;  // on the repaired surfaces, for report.html
   if (!args.landmarks.empty()) {
     if (args.landmarks.size() != 2) throw InputError("--landmarks: expected two files LA LB");
     std::vector<int> la = read_landmarks(args.landmarks[0], inA.V);
@@ -153,6 +159,8 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
     bo.name_A = args.A;
     bo.name_B = args.B;
     landmark_initial_maps(A, B, la, lb, initAB, initBA, &bo);
+    landmarks_A = la;
+    landmarks_B = lb;
     init_kind = "landmarks (BIM over landmark triplets)";
   } else if (args.init.empty() || args.init == "bim") {
     BIMOptions bo = args.bim;
@@ -338,8 +346,9 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
   nlohmann::json metrics;
   metrics["initial"]["AB"] = surface_map_metrics_json(A, B, initAB, bij ? &initBA : nullptr,
                                              has_truth ? &truth : nullptr);
+  Eigen::VectorXd error_AB;  // per vertex of A, with --truth (report.html)
   metrics["final"]["AB"] = surface_map_metrics_json(A, B, r.map_AB, bij ? &r.map_BA : nullptr,
-                                           has_truth ? &truth : nullptr);
+                                           has_truth ? &truth : nullptr, &error_AB);
   if (bij) {
     metrics["initial"]["BA"] = surface_map_metrics_json(B, A, initBA, &initAB, nullptr);
     metrics["final"]["BA"] = surface_map_metrics_json(B, A, r.map_BA, &r.map_AB, nullptr);
@@ -385,9 +394,11 @@ int run_elastic_surface_map(const ElasticMapArgs& args, const ElasticCliOptions&
   }
   timer.start("pictures");
   const auto figures = surface_map_figures(A, B, r.map_AB, bij ? &r.map_BA : nullptr);
+  const ViewerData viewer =
+      surface_map_viewer_data(A, B, r.map_AB, bij ? &r.map_BA : nullptr, landmarks_A, landmarks_B, &error_AB);
   timer.stop();
   report["timings"] = timer.json();
-  write_reports(out, report, "shapemap surface-map --method elastic", figures);
+  write_reports(out, report, "shapemap surface-map --method elastic", figures, &viewer, &g);
   out.commit();
   info(g, "elastic: " + std::to_string(r.outer_iterations) + " outer iterations, " +
               std::to_string(timer.total()) + " s; wrote " + out.final_path());

@@ -35,8 +35,11 @@ BarycentricMap read_checked_map(const std::string& path, int n_source, int m_tar
 // The surface-map metrics of P: S -> T (elastic-correspondence.txt Sec. 6.1: conformal and
 // area distortion, mean-curvature error, flips; reversibility |PQX - X| when Q: T -> S is
 // given; geodesic error against `truth` when given), as report.json's metrics.AB / BA.
+// vertex_error (optional, with truth): per vertex of S its normalized geodesic error, -1
+// where it was not evaluated (report.html colours A by it).
 nlohmann::json surface_map_metrics_json(const TriMesh& S, const TriMesh& T, const BarycentricMap& P,
-                                        const BarycentricMap* Q, const BarycentricMap* truth);
+                                        const BarycentricMap* Q, const BarycentricMap* truth,
+                                        Eigen::VectorXd* vertex_error = nullptr);
 
 // Adds --elastic-preset, --elastic-eta, --elastic-alpha, --elastic-iterations,
 // --elastic-injective, --elastic-partial, --elastic-keep-worse, --truth to the subcommand.
