@@ -90,7 +90,9 @@ TetMesh tetrahedralize_input(const TriMesh& surface, const TetrahedralizeOptions
   }
   if (ti.self_intersecting_pairs > 0 && !quiet)
     std::cerr << path << ": note: the surface crosses itself (" << ti.self_intersecting_pairs
-              << " pairs of faces); meshed the region inside it by ray parity, without crease protection\n";
+              << (ti.self_intersections_removed
+                      ? " pairs of faces); meshing ran away, so the crossings were removed (CGAL) and it was meshed again\n"
+                      : " pairs of faces); meshed the region inside it by ray parity, without crease protection\n");
   if (!ti.creases_dropped.empty() && !quiet)
     std::cerr << path << ": note: sharp creases not protected (CGAL's crease protection failed: "
               << ti.creases_dropped << "); meshed without them\n";
