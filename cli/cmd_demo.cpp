@@ -7,6 +7,7 @@
 // and writes DIR/index.html: the summary, then each stage's interactive report (its 3D views
 // and metrics) in one page. --index-only rewrites index.html from the folders already there.
 #include "common.h"
+#include "shapemap/render/report_html.h"
 #include "shapemap/error.h"
 #include "shapemap/io.h"
 #include <chrono>
@@ -60,18 +61,6 @@ struct DemoArgs {
   int tets = 12000;  // per volume
   bool index_only = false;
 };
-
-std::string escape(const std::string& s) {
-  std::string o;
-  for (char c : s) {
-    if (c == '<') o += "&lt;";
-    else if (c == '>') o += "&gt;";
-    else if (c == '&') o += "&amp;";
-    else if (c == '"') o += "&quot;";
-    else o += c;
-  }
-  return o;
-}
 
 int run_demo(const DemoArgs& a, const GlobalOptions& g) {
   fs::create_directories(a.out);
@@ -197,15 +186,15 @@ int run_demo(const DemoArgs& a, const GlobalOptions& g) {
        << "iframe{width:100%;height:820px;border:1px solid #bbb}section{margin:1.5em 0}</style></head><body>"
        << "<h1>shapemap demo</h1><table id=\"summary\"><tr><th>method</th><th>time</th><th>key metrics</th></tr>";
   for (auto& r : rows)
-    html << "<tr><td>" << escape(r.method) << "</td><td>" << escape(r.time) << "</td><td>" << escape(r.metrics)
+    html << "<tr><td>" << html_escape(r.method) << "</td><td>" << html_escape(r.time) << "</td><td>" << html_escape(r.metrics)
          << "</td></tr>";
   html << "</table>";
   for (auto& s : steps) {
     if (s.name.find("eval") != std::string::npos || !fs::exists(D + "/" + s.folder + "/report.html")) continue;
     const std::string page = s.folder + "/report.html";
-    html << "<section><h2>" << escape(s.name) << "</h2><p>" << escape(s.what) << " (" << escape(time_of(s.name))
+    html << "<section><h2>" << html_escape(s.name) << "</h2><p>" << html_escape(s.what) << " (" << html_escape(time_of(s.name))
          << "; <a href=\"" << page << "\">open alone</a>)</p><iframe src=\"" << page << "\" title=\""
-         << escape(s.name) << "\"></iframe></section>";
+         << html_escape(s.name) << "\"></iframe></section>";
   }
   html << "</body></html>\n";
   write_text_atomic(D + "/index.html", html.str());

@@ -7,18 +7,19 @@
 
 namespace shapemap {
 
-namespace {
-
-std::string escape(const std::string& s) {
+std::string html_escape(const std::string& s) {
   std::string o;
   for (char c : s) {
     if (c == '<') o += "&lt;";
     else if (c == '>') o += "&gt;";
     else if (c == '&') o += "&amp;";
+    else if (c == '"') o += "&quot;";
     else o += c;
   }
   return o;
 }
+
+namespace {
 
 std::string scalar_text(const nlohmann::json& v) {
   if (v.is_number_float()) {
@@ -49,8 +50,8 @@ void table(std::ostringstream& o, const nlohmann::json& j, const std::string& pt
     const std::string key = j.is_object() ? it.key() : std::to_string(std::distance(j.begin(), it));
     const std::string p = ptr + "/" + pointer_token(key);
     const auto& v = it.value();
-    o << "<tr><th>" << escape(key) << "</th><td";
-    if (!v.is_structured()) o << " data-ptr=\"" << escape(p) << "\"";
+    o << "<tr><th>" << html_escape(key) << "</th><td";
+    if (!v.is_structured()) o << " data-ptr=\"" << html_escape(p) << "\"";
     o << ">";
     if (v.is_object()) table(o, v, p);
     else if (v.is_array() && v.size() > 12) o << "[" << v.size() << " values]";
@@ -60,9 +61,9 @@ void table(std::ostringstream& o, const nlohmann::json& j, const std::string& pt
       if (flat) {
         std::string s;
         for (auto& e : v) s += (s.empty() ? "" : ", ") + scalar_text(e);
-        o << escape(s);
+        o << html_escape(s);
       } else table(o, v, p);
-    } else o << escape(scalar_text(v));
+    } else o << html_escape(scalar_text(v));
     o << "</td></tr>";
   }
   o << "</table>";
@@ -73,13 +74,13 @@ void table(std::ostringstream& o, const nlohmann::json& j, const std::string& pt
 std::string report_html(const std::string& title, const nlohmann::json& report, const std::vector<Figure>& figures,
                         bool viewer) {
   std::ostringstream o;
-  o << "<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>" << escape(title) << "</title><style>"
+  o << "<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>" << html_escape(title) << "</title><style>"
     << "body{font-family:sans-serif;margin:1em 2em;max-width:1600px}table{border-collapse:collapse;margin:2px}"
     << "th,td{border:1px solid #ccc;padding:2px 6px;text-align:left;vertical-align:top;font-size:13px}"
     << "th{background:#f3f3f3}figure{display:inline-block;margin:8px}img{max-width:100%;border:1px solid #ddd}"
     << "#top{display:flex;gap:1em;align-items:flex-start}#views{flex:2 1 700px;min-width:400px}"
     << "#side{flex:1 1 350px;max-height:80vh;overflow:auto}"
-    << "</style></head><body><h1>" << escape(title) << "</h1><div id=\"top\">";
+    << "</style></head><body><h1>" << html_escape(title) << "</h1><div id=\"top\">";
   if (viewer) {
     o << "<div id=\"views\"><noscript>The 3D views need JavaScript.</noscript></div>";
   }
@@ -93,8 +94,8 @@ std::string report_html(const std::string& title, const nlohmann::json& report, 
   o << "</div></div><h2>Pictures</h2>";
   for (auto& f : figures) {
     const std::vector<unsigned char> png = encode_png(f.image);
-    o << "<figure><img alt=\"" << escape(f.caption) << "\" src=\"data:image/png;base64,"
-      << base64_encode(png.data(), png.size()) << "\"><figcaption>" << escape(f.caption)
+    o << "<figure><img alt=\"" << html_escape(f.caption) << "\" src=\"data:image/png;base64,"
+      << base64_encode(png.data(), png.size()) << "\"><figcaption>" << html_escape(f.caption)
       << "</figcaption></figure>";
   }
   if (viewer) {

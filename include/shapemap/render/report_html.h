@@ -16,6 +16,9 @@ struct Figure {
   Image image;
 };
 
+// s with < > & " replaced by their HTML entities (text and attribute values).
+std::string html_escape(const std::string& s);
+
 std::string report_html(const std::string& title, const nlohmann::json& report,
                         const std::vector<Figure>& figures, bool viewer = false);
 // Writes report_html(...) to path atomically.
