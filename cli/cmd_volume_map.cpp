@@ -184,6 +184,11 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
   c.app->add_option("--newton-iterations", a->opt.newton_iterations, "Newton iterations per X-step at most")
       ->check(non_negative())
       ->capture_default_str();
+  c.app->add_option("--anderson", a->opt.anderson_memory,
+                    "Stages 2 and 4: Anderson acceleration of the P/X alternation with this memory, "
+                    "each proposal kept only if it lowers Eq. 25 (ours; 0 = off)")
+      ->check(CLI::Range(0, 20))
+      ->capture_default_str();
   c.app->add_flag("--no-land-on-target", [a](std::int64_t) { a->opt.land_on_target = false; },
                   "Skip the final stage that puts X's boundary on the target's boundary and relaxes the "
                   "interior (ours; without it the map files snap images left outside into the target)");
@@ -389,6 +394,7 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
                         {"energy", s.energy}, {"n_inv_AB", s.inverted12}, {"n_inv_BA", s.inverted21},
                         {"seconds_P_step", s.time_pstep}, {"seconds_X_step", s.time_xstep},
                         {"solver_iterations", s.lbfgs_iterations}, {"evaluations", s.evaluations},
+                        {"anderson_accepted", s.anderson_accepted}, {"anderson_rejected", s.anderson_rejected},
                         {"newton_seconds", {{"energy", s.newton_seconds[0]}, {"hessian", s.newton_seconds[1]},
                                             {"factor", s.newton_seconds[2]}, {"solve", s.newton_seconds[3]}}},
                         {"stop_reason", s.stop_reason}, {"energy_history", s.energy_history},

@@ -3,6 +3,7 @@
 #include "shapemap/adjacency.h"
 #include "shapemap/error.h"
 #include "shapemap/geometry/mass.h"
+#include "shapemap/optim/anderson.h"
 #include "shapemap/optim/lbfgs.h"
 #include "shapemap/optim/newton.h"
 #include <Eigen/Dense>
@@ -744,159 +745,232 @@ bool land_on_target(DirectionalEnergy& e, const TetMesh& Mi, const TetMesh& Mj,
 
 }  // namespace
 
-SymmetricVolumeMapResult symmetric_volume_map(const TetMesh& A, const TetMesh& B,
-                                              const BarycentricMap& init12,
-                                              const BarycentricMap& init21,
-                                              const SymmetricVolumeMapOptions& opt,
-                                              const ProgressCallback& progress) {
-  validate_map(init12, A.num_vertices(), B.num_tets(), 4, "initial map A->B");
-  validate_map(init21, B.num_vertices(), A.num_tets(), 4, "initial map B->A");
-  // Unit volume (Sec. 5.5).
-  Normalization nA = unit_volume_normalization(A), nB = unit_volume_normalization(B);
-  TetMesh M1{nA.apply(A.V), A.T}, M2{nB.apply(B.V), B.T};
+namespace {
 
-  DirectionalEnergy e12(M1, M2), e21(M2, M1);
-  const double c1 = e12.volume_i(), c2 = e21.volume_i();
-  PStep p12(M1, M2, c1, c2), p21(M2, M1, c2, c1);
-  const int n1 = M1.num_vertices(), n2 = M2.num_vertices();
-
-  SymmetricVolumeMapResult res;
-  BarycentricMap P12 = init12, P21 = init21;
-  const BarycentricMap P12_0 = init12, P21_0 = init21;  // Algorithm 1 lines 1-2
-  Eigen::MatrixXd X12 = map_positions(P12, M2.V, M2.T);  // line 3
-  Eigen::MatrixXd X21 = map_positions(P21, M1.V, M1.T);  // line 4
-
-  std::vector<char> bd1(n1, 0), bd2(n2, 0);
-  for (int i = 0; i < e12.boundary_i().to_volume.size(); ++i) bd1[e12.boundary_i().to_volume(i)] = 1;
-  for (int i = 0; i < e21.boundary_i().to_volume.size(); ++i) bd2[e21.boundary_i().to_volume(i)] = 1;
-  std::vector<int> all1(n1), all2(n2), int1, int2;
-  for (int v = 0; v < n1; ++v) {
-    all1[v] = v;
-    if (!bd1[v]) int1.push_back(v);
-  }
-  for (int v = 0; v < n2; ++v) {
-    all2[v] = v;
-    if (!bd2[v]) int2.push_back(v);
+// Algorithm 1 as a solver object: the state that lives across stages (both representations
+// of both maps, the P-step BVHs, the X-step energies, the beta/gamma schedule) is held
+// here, one method per stage.
+class SymmetricMapSolver {
+ public:
+  SymmetricMapSolver(const TetMesh& A, const TetMesh& B, const BarycentricMap& init12,
+                     const BarycentricMap& init21, const SymmetricVolumeMapOptions& opt,
+                     const ProgressCallback& progress)
+      : A_(A), B_(B), opt_(opt), progress_(progress),
+        nA_(unit_volume_normalization(A)), nB_(unit_volume_normalization(B)),  // Sec. 5.5
+        M1_{nA_.apply(A.V), A.T}, M2_{nB_.apply(B.V), B.T},
+        e12_(M1_, M2_), e21_(M2_, M1_),
+        p12_(M1_, M2_, e12_.volume_i(), e21_.volume_i()),
+        p21_(M2_, M1_, e21_.volume_i(), e12_.volume_i()),
+        P12_(init12), P21_(init21), P12_0_(init12), P21_0_(init21),  // lines 1-2
+        X12_(map_positions(P12_, M2_.V, M2_.T)),                     // line 3
+        X21_(map_positions(P21_, M1_.V, M1_.T)) {                    // line 4
+    split_vertices(e12_, bd1_, all1_, int1_);
+    split_vertices(e21_, bd2_, all2_, int2_);
+    vv1_ = vertex_neighbors(M1_.T, M1_.num_vertices());
+    vv2_ = vertex_neighbors(M2_.T, M2_.num_vertices());
+    vt1_ = vertex_elements(M1_.T, M1_.num_vertices());
+    vt2_ = vertex_elements(M2_.T, M2_.num_vertices());
+    beta_ = beta_at(0);
+    gamma_ = gamma_at(0);
   }
 
-  int global_iter = 0;
-  auto beta_at = [&](int it) {
-    if (opt.beta_ramp_iterations <= 0) return opt.beta_end;
-    double t = std::min(1.0, double(it) / opt.beta_ramp_iterations);
-    return opt.beta_start + (opt.beta_end - opt.beta_start) * t;
-  };
+  SymmetricVolumeMapResult run() {
+    record_initial();                                                        // stage 1
+    if (opt_.fix_boundary_first) alternate("boundary-fixed", true);          // stage 2
+    repair("repair", opt_.repair_rings, opt_.repair_iterations, 1, 0, SigmaPenalty{0, 0});  // 3
+    alternate("full", false);                                                // stage 4
+    repair("post-repair", 0, opt_.post_repair_steps, opt_.post_repair_rounds,
+           opt_.post_repair_fallback_rings, opt_.post_repair_penalty);       // stage 5
+    if (opt_.land_on_target) land();                                         // ours
+    return finish();
+  }
+
+ private:
+  // Boundary flags, all vertices, interior vertices of M_i.
+  static void split_vertices(const DirectionalEnergy& e, std::vector<char>& bd,
+                             std::vector<int>& all, std::vector<int>& interior) {
+    const int n = e.arap().num_vertices();
+    bd.assign(n, 0);
+    for (int i = 0; i < e.boundary_i().to_volume.size(); ++i) bd[e.boundary_i().to_volume(i)] = 1;
+    all.resize(n);
+    for (int v = 0; v < n; ++v) {
+      all[v] = v;
+      if (!bd[v]) interior.push_back(v);
+    }
+  }
+
+  // Sec. 4.4 / 5.5: beta from beta_start to beta_end over the ramp iterations, counted
+  // across stages 2 and 4.
+  double beta_at(int it) const {
+    if (opt_.beta_ramp_iterations <= 0) return opt_.beta_end;
+    const double t = std::min(1.0, double(it) / opt_.beta_ramp_iterations);
+    return opt_.beta_start + (opt_.beta_end - opt_.beta_start) * t;
+  }
   // gamma ramps with beta over the same iterations when gamma_start >= 0 (the authors'
   // released code: both from 1/N of their final values), else stays at gamma.
-  auto gamma_at = [&](int it) {
-    if (opt.gamma_start < 0 || opt.beta_ramp_iterations <= 0) return opt.gamma;
-    double t = std::min(1.0, double(it) / opt.beta_ramp_iterations);
-    return opt.gamma_start + (opt.gamma - opt.gamma_start) * t;
-  };
-  double beta = beta_at(0), gamma = gamma_at(0);
-  auto set_weights = [&](double a, double b, double g) {
-    e12.set_weights(a, b, g, opt.backward_projection_scale);
-    e21.set_weights(a, b, g, opt.backward_projection_scale);
-  };
+  double gamma_at(int it) const {
+    if (opt_.gamma_start < 0 || opt_.beta_ramp_iterations <= 0) return opt_.gamma;
+    const double t = std::min(1.0, double(it) / opt_.beta_ramp_iterations);
+    return opt_.gamma_start + (opt_.gamma - opt_.gamma_start) * t;
+  }
+  void set_weights() {
+    e12_.set_weights(opt_.alpha, beta_, gamma_, opt_.backward_projection_scale);
+    e21_.set_weights(opt_.alpha, beta_, gamma_, opt_.backward_projection_scale);
+  }
+  double energy() { return e12_.evaluate(X12_) + e21_.evaluate(X21_); }
+  void count_inversions(SymmetricMapStage& st) const {
+    st.inverted12 = count_inverted(e12_.arap(), X12_);
+    st.inverted21 = count_inverted(e21_.arap(), X21_);
+  }
 
-  // Stages 2 and 4: alternating P- and X-steps until a stopping rule of Sec. 5.4.
-  auto optimize = [&](const std::string& name, bool fix_boundary) {
+  void record_initial() {
+    SymmetricMapStage st;
+    st.name = "init";
+    set_weights();
+    e12_.set_maps(P12_, P21_);
+    e21_.set_maps(P21_, P12_);
+    st.energy = energy();
+    count_inversions(st);
+    res_.stages.push_back(st);
+  }
+
+  // P-steps of both directions (Algorithm 1 lines 8 / 18; boundary rows restored in stage
+  // 2, line 10), then the X-step energies take the new P.
+  void p_steps(bool fix_boundary, SymmetricMapStage& st) {
+    const auto tp = Clock::now();
+    p12_.run(X12_, X21_, opt_.alpha, beta_, opt_.boundary_to_boundary, fix_boundary ? &bd1_ : nullptr,
+             P12_0_, P12_);
+    p21_.run(X21_, X12_, opt_.alpha, beta_, opt_.boundary_to_boundary, fix_boundary ? &bd2_ : nullptr,
+             P21_0_, P21_);
+    e12_.set_maps(P12_, P21_);
+    e21_.set_maps(P21_, P12_);
+    st.time_pstep += seconds_since(tp);
+  }
+
+  // X-steps of both directions (lines 9 / 19). Returns Eq. 25 and sets `grad_norm`.
+  double x_steps(bool fix_boundary, ProjectedNewton* n12, ProjectedNewton* n21,
+                 SymmetricMapStage& st, double& grad_norm) {
+    const auto tx = Clock::now();
+    LbfgsResult r1, r2;
+    if (opt_.solver == XStepSolver::Newton) {
+      NewtonOptions no;
+      no.max_iterations = opt_.newton_iterations;
+      no.f_rel_tol = opt_.newton_rel_tol;
+      no.grad_tol = 0;
+      // (Running the two directions on one thread each was 1.3x faster but not
+      // reproducible run to run: it stays serial, parallel inside.)
+      r1 = newton_rows(e12_, *n12, X12_, no, st.newton_seconds);
+      r2 = newton_rows(e21_, *n21, X21_, no, st.newton_seconds);
+    } else {
+      auto f12 = [&](const Eigen::MatrixXd& X, Eigen::MatrixXd* g) { return e12_.evaluate(X, g); };
+      auto f21 = [&](const Eigen::MatrixXd& X, Eigen::MatrixXd* g) { return e21_.evaluate(X, g); };
+      r1 = minimize_rows(f12, X12_, fix_boundary ? int1_ : all1_, opt_.xstep_iterations, opt_.lbfgs_memory);
+      r2 = minimize_rows(f21, X21_, fix_boundary ? int2_ : all2_, opt_.xstep_iterations, opt_.lbfgs_memory);
+    }
+    st.time_xstep += seconds_since(tx);
+    st.lbfgs_iterations += r1.iterations + r2.iterations;
+    st.evaluations += r1.evaluations + r2.evaluations;
+    grad_norm = std::sqrt(r1.grad_norm * r1.grad_norm + r2.grad_norm * r2.grad_norm);
+    return r1.f + r2.f;
+  }
+
+  Eigen::VectorXd pack() const {
+    Eigen::VectorXd x(X12_.size() + X21_.size());
+    x << Eigen::Map<const Eigen::VectorXd>(X12_.data(), X12_.size()),
+        Eigen::Map<const Eigen::VectorXd>(X21_.data(), X21_.size());
+    return x;
+  }
+  void unpack(const Eigen::VectorXd& x) {
+    Eigen::Map<Eigen::VectorXd>(X12_.data(), X12_.size()) = x.head(X12_.size());
+    Eigen::Map<Eigen::VectorXd>(X21_.data(), X21_.size()) = x.tail(X21_.size());
+  }
+
+  // Stages 2 and 4: alternating P- and X-steps until a stopping rule of Sec. 5.4. With
+  // anderson_memory > 0 (ours), once the weights are final the next X is Anderson's
+  // extrapolation of the alternation; it is kept if Eq. 25 after its P-step is below the
+  // last X-step's energy (which the plain next iterate never exceeds: the P-step is an exact
+  // minimization), else the plain iterate is restored.
+  void alternate(const std::string& name, bool fix_boundary) {
     SymmetricMapStage st;
     st.name = name;
-    auto t0 = Clock::now();
+    const auto t0 = Clock::now();
     double E_prev = std::numeric_limits<double>::infinity();
     double beta_prev = -1;  // beta of E_prev: the decrease rule compares energies of one Eq. 25
-    const std::vector<int>& free1 = fix_boundary ? int1 : all1;
-    const std::vector<int>& free2 = fix_boundary ? int2 : all2;
     // Newton: one pattern (and CHOLMOD analysis) per direction for the whole stage.
     std::unique_ptr<ProjectedNewton> n12, n21;
-    NewtonOptions no;
-    no.max_iterations = opt.newton_iterations;
-    no.f_rel_tol = opt.newton_rel_tol;
-    no.grad_tol = 0;
-    if (opt.solver == XStepSolver::Newton) {
-      n12 = std::make_unique<ProjectedNewton>(BlockHessian(M1.T, n1, free1));
-      n21 = std::make_unique<ProjectedNewton>(BlockHessian(M2.T, n2, free2));
+    if (opt_.solver == XStepSolver::Newton) {
+      n12 = std::make_unique<ProjectedNewton>(BlockHessian(M1_.T, M1_.num_vertices(), fix_boundary ? int1_ : all1_));
+      n21 = std::make_unique<ProjectedNewton>(BlockHessian(M2_.T, M2_.num_vertices(), fix_boundary ? int2_ : all2_));
     }
-    for (int it = 0; it < opt.max_iterations; ++it) {
-      beta = beta_at(global_iter);
-      gamma = gamma_at(global_iter);
-      set_weights(opt.alpha, beta, gamma);
-      auto tp = Clock::now();
-      // P-steps (Algorithm 1 lines 8 / 18), boundary restored in stage 2 (line 10)
-      p12.run(X12, X21, opt.alpha, beta, opt.boundary_to_boundary, fix_boundary ? &bd1 : nullptr,
-              P12_0, P12);
-      p21.run(X21, X12, opt.alpha, beta, opt.boundary_to_boundary, fix_boundary ? &bd2 : nullptr,
-              P21_0, P21);
-      st.time_pstep += seconds_since(tp);
-      // X-steps (lines 9 / 19)
-      auto tx = Clock::now();
-      e12.set_maps(P12, P21);
-      e21.set_maps(P21, P12);
-      auto f12 = [&](const Eigen::MatrixXd& X, Eigen::MatrixXd* g) { return e12.evaluate(X, g); };
-      auto f21 = [&](const Eigen::MatrixXd& X, Eigen::MatrixXd* g) { return e21.evaluate(X, g); };
-      LbfgsResult r1, r2;
-      if (opt.solver == XStepSolver::Newton) {
-        // (Running the two directions on one thread each was 1.3x faster but not
-        // reproducible run to run: it stays serial, parallel inside.)
-        r1 = newton_rows(e12, *n12, X12, no, st.newton_seconds);
-        r2 = newton_rows(e21, *n21, X21, no, st.newton_seconds);
-      } else {
-        r1 = minimize_rows(f12, X12, free1, opt.xstep_iterations, opt.lbfgs_memory);
-        r2 = minimize_rows(f21, X21, free2, opt.xstep_iterations, opt.lbfgs_memory);
+    AndersonAcceleration aa(opt_.anderson_memory);
+    Eigen::VectorXd plain;  // G(x_k) when X holds an accelerated proposal
+    for (int it = 0; it < opt_.max_iterations; ++it) {
+      beta_ = beta_at(global_iter_);
+      gamma_ = gamma_at(global_iter_);
+      set_weights();
+      p_steps(fix_boundary, st);
+      if (plain.size() > 0) {  // guard the accelerated proposal
+        if (energy() < E_prev) {
+          ++st.anderson_accepted;
+        } else {
+          ++st.anderson_rejected;
+          unpack(plain);
+          p_steps(fix_boundary, st);
+        }
+        plain.resize(0);
       }
-      st.time_xstep += seconds_since(tx);
-      st.lbfgs_iterations += r1.iterations + r2.iterations;
-      st.evaluations += r1.evaluations + r2.evaluations;
-      double E = r1.f + r2.f;
-      double gn = std::sqrt(r1.grad_norm * r1.grad_norm + r2.grad_norm * r2.grad_norm);
-      ++global_iter;
+      const Eigen::VectorXd x_k = opt_.anderson_memory > 0 ? pack() : Eigen::VectorXd();
+      double gn = 0;
+      const double E = x_steps(fix_boundary, n12.get(), n21.get(), st, gn);
+      ++global_iter_;
       ++st.iterations;
       st.energy = E;
-      report(progress, "volume-map/" + name, double(it + 1) / opt.max_iterations);
+      report(progress_, "volume-map/" + name, double(it + 1) / opt_.max_iterations);
       st.energy_history.push_back(E);
       st.gradient_history.push_back(gn);
-      bool ramp_done = beta_at(global_iter) == beta;  // beta no longer changes
-      if (it + 1 < opt.min_iterations) {
-        E_prev = E;
-        beta_prev = beta;
-        continue;
-      }
-      if (gn < opt.grad_tol) {
-        st.stop_reason = "gradient";
-        break;
-      }
-      // Only once beta is final, and between two iterations at that beta: the first
-      // iteration at beta_end has a larger E_Q weight than the one before (E rises).
-      if (ramp_done && beta_prev == beta &&
-          E_prev - E < std::max(opt.decrease_tol, opt.decrease_rel_tol * std::abs(E))) {
-        st.stop_reason = "decrease";
-        break;
+      const bool ramp_done = beta_at(global_iter_) == beta_ && gamma_at(global_iter_) == gamma_;
+      if (it + 1 >= opt_.min_iterations) {
+        if (gn < opt_.grad_tol) {
+          st.stop_reason = "gradient";
+          break;
+        }
+        // Only once beta is final, and between two iterations at that beta: the first
+        // iteration at beta_end has a larger E_Q weight than the one before (E rises).
+        if (ramp_done && beta_prev == beta_ &&
+            E_prev - E < std::max(opt_.decrease_tol, opt_.decrease_rel_tol * std::abs(E))) {
+          st.stop_reason = "decrease";
+          break;
+        }
       }
       E_prev = E;
-      beta_prev = beta;
-      if (it + 1 == opt.max_iterations) st.stop_reason = "iterations";
+      beta_prev = beta_;
+      if (it + 1 == opt_.max_iterations) {
+        st.stop_reason = "iterations";
+      } else if (opt_.anderson_memory > 0 && ramp_done) {
+        plain = pack();
+        unpack(aa.step(x_k, plain));
+      } else {
+        aa.reset();  // the fixed-point map changes with the weights
+      }
     }
-    st.inverted12 = count_inverted(e12.arap(), X12);
-    st.inverted21 = count_inverted(e21.arap(), X21);
+    count_inversions(st);
     st.seconds = seconds_since(t0);
-    res.iterations += st.iterations;
-    res.stages.push_back(st);
-  };
+    res_.iterations += st.iterations;
+    res_.stages.push_back(st);
+  }
 
-  auto vv1 = vertex_neighbors(M1.T, n1), vv2 = vertex_neighbors(M2.T, n2);
-  auto vt1 = vertex_elements(M1.T, n1), vt2 = vertex_elements(M2.T, n2);
   // Stages 3 and 5: ARAP only on the neighbourhood of inverted tets (Sec. 5.3).
   // fallback_rings > rings: rounds on that wider neighbourhood when the first ones leave
   // inverted tets, and the stage is undone (per direction) unless it lowered their number
   // (stage 5 only, see SymmetricVolumeMapOptions::post_repair_fallback_rings).
-  auto repair = [&](const std::string& name, int rings, int steps, int rounds, int fallback_rings,
-                    const SigmaPenalty& pen) {
+  void repair(const std::string& name, int rings, int steps, int rounds, int fallback_rings,
+              const SigmaPenalty& pen) {
     SymmetricMapStage st;
     st.name = name;
-    auto t0 = Clock::now();
+    const auto t0 = Clock::now();
     for (int dir = 0; dir < 2; ++dir) {
-      const ArapEnergy& arap = dir == 0 ? e12.arap() : e21.arap();
-      Eigen::MatrixXd& X = dir == 0 ? X12 : X21;
+      const ArapEnergy& arap = dir == 0 ? e12_.arap() : e21_.arap();
+      Eigen::MatrixXd& X = dir == 0 ? X12_ : X21_;
       // Stage 5 must not leave more inverted tets than it found (ARAP alone does not keep
       // tets positive: moving the corners of one inverted tet can turn its neighbours over).
       const int inverted_start = fallback_rings > 0 ? count_inverted(arap, X) : 0;
@@ -905,101 +979,110 @@ SymmetricVolumeMapResult symmetric_volume_map(const TetMesh& A, const TetMesh& B
       for (int round = 0; round < total_rounds; ++round) {
         std::vector<int> verts, tets;
         inverted_neighbourhood(arap, X, round < rounds ? rings : fallback_rings,
-                               dir == 0 ? vv1 : vv2, dir == 0 ? vt1 : vt2, verts, tets);
+                               dir == 0 ? vv1_ : vv2_, dir == 0 ? vt1_ : vt2_, verts, tets);
         if (verts.empty()) break;
         auto f = [&](const Eigen::MatrixXd& Y, Eigen::MatrixXd* g) { return arap.energy(Y, tets, g, pen); };
-        LbfgsResult r = minimize_rows(f, X, verts, steps, opt.lbfgs_memory);
-        st.iterations += r.iterations;
+        st.iterations += minimize_rows(f, X, verts, steps, opt_.lbfgs_memory).iterations;
       }
       if (fallback_rings > 0 && inverted_start > 0 && count_inverted(arap, X) >= inverted_start)
         X = X_start;
     }
-    set_weights(opt.alpha, beta, gamma);
-    st.energy = e12.evaluate(X12) + e21.evaluate(X21);
-    st.inverted12 = count_inverted(e12.arap(), X12);
-    st.inverted21 = count_inverted(e21.arap(), X21);
+    set_weights();
+    st.energy = energy();
+    count_inversions(st);
     st.seconds = seconds_since(t0);
-    res.stages.push_back(st);
-    report(progress, "volume-map/" + name, 1.0);
-  };
-
-  {  // Stage 1 record: the initial map.
-    SymmetricMapStage st;
-    st.name = "init";
-    set_weights(opt.alpha, beta, gamma);
-    e12.set_maps(P12, P21);
-    e21.set_maps(P21, P12);
-    st.energy = e12.evaluate(X12) + e21.evaluate(X21);
-    st.inverted12 = count_inverted(e12.arap(), X12);
-    st.inverted21 = count_inverted(e21.arap(), X21);
-    res.stages.push_back(st);
+    res_.stages.push_back(st);
+    report(progress_, "volume-map/" + name, 1.0);
   }
-  if (opt.fix_boundary_first) optimize("boundary-fixed", true);        // stage 2
-  repair("repair", opt.repair_rings, opt.repair_iterations, 1, 0, SigmaPenalty{0, 0});  // stage 3
-  optimize("full", false);                                              // stage 4
-  repair("post-repair", 0, opt.post_repair_steps, opt.post_repair_rounds,
-         opt.post_repair_fallback_rings, opt.post_repair_penalty);      // stage 5
 
   // Ours (issue 19): the map files hold barycentric coordinates in the target's tets, so a
   // boundary that the penalty gamma E_P left off the target would be snapped into it after
   // the fact, inverting tets there (5-20x more than X had, on real pairs). Instead the
-  // boundary of X is put on the target's boundary exactly (closest points), and the
-  // interior relaxed with the boundary held: Newton on the X-step objective, then the
-  // ARAP repair of Sec. 5.3 on inverted tets' interior vertices. X and the map files are
-  // then one map.
-  BarycentricMap final12, final21;  // the map files when landing
-  if (opt.land_on_target) {
+  // boundary of X is put on the target's boundary (land_on_target), and X and the map
+  // files are one map.
+  void land() {
     SymmetricMapStage st;
     st.name = "land-on-target";
-    auto t0 = Clock::now();
-    set_weights(opt.alpha, beta, gamma);
+    const auto t0 = Clock::now();
+    set_weights();
     for (int dir = 0; dir < 2; ++dir) {
-      const bool landed = land_on_target(dir == 0 ? e12 : e21, dir == 0 ? M1 : M2, dir == 0 ? M2 : M1,
-                                         dir == 0 ? int1 : int2, dir == 0 ? vv1 : vv2, dir == 0 ? vt1 : vt2, opt,
-                                         dir == 0 ? X12 : X21, dir == 0 ? final12 : final21, st);
+      const bool landed =
+          land_on_target(dir == 0 ? e12_ : e21_, dir == 0 ? M1_ : M2_, dir == 0 ? M2_ : M1_,
+                         dir == 0 ? int1_ : int2_, dir == 0 ? vv1_ : vv2_, dir == 0 ? vt1_ : vt2_, opt_,
+                         dir == 0 ? X12_ : X21_, dir == 0 ? final12_ : final21_, st);
       st.stop_reason += std::string(st.stop_reason.empty() ? "" : ", ") + (dir == 0 ? "AB " : "BA ") +
                         (landed ? "landed" : "snapped (landing inverted more)");
     }
-    st.energy = e12.evaluate(X12) + e21.evaluate(X21);
-    st.inverted12 = count_inverted(e12.arap(), X12);
-    st.inverted21 = count_inverted(e21.arap(), X21);
+    st.energy = energy();
+    count_inversions(st);
     st.seconds = seconds_since(t0);
-    res.stages.push_back(st);
-    report(progress, "volume-map/land-on-target", 1.0);
+    res_.stages.push_back(st);
+    report(progress_, "volume-map/land-on-target", 1.0);
   }
 
-  // Final energies (Eq. 25 terms), unit-volume frame.
-  set_weights(opt.alpha, beta, gamma);
-  e12.set_maps(P12, P21);
-  e21.set_maps(P21, P12);
-  DirectionalEnergy::Terms t1, t2;
-  res.E = e12.evaluate(X12, nullptr, &t1) + e21.evaluate(X21, nullptr, &t2);
-  res.E_arap = t1.arap + t2.arap;
-  res.E_R = t1.reversibility + t2.reversibility;
-  res.E_P = t1.projection_forward + t2.projection_forward +
-            opt.backward_projection_scale * (t1.projection_backward + t2.projection_backward);
-  res.E_Q = t1.auxiliary + t2.auxiliary;
-
-  // Outputs in the targets' original coordinates.
-  res.X12 = nB.undo(X12);
-  res.X21 = nA.undo(X21);
-  res.P12 = P12;
-  res.P21 = P21;
-  std::vector<int> b1, b2;
-  for (int v = 0; v < n1; ++v)
-    if (bd1[v]) b1.push_back(v);
-  for (int v = 0; v < n2; ++v)
-    if (bd2[v]) b2.push_back(v);
-  if (opt.land_on_target) {  // X is the map files' positions: the same numbers, unscaled
-    res.map12 = final12;
-    res.map21 = final21;
-    res.X12 = map_positions(final12, B.V, B.T);
-    res.X21 = map_positions(final21, A.V, A.T);
-  } else {
-    res.map12 = locate_in_tets(B, res.X12, b1);
-    res.map21 = locate_in_tets(A, res.X21, b2);
+  // Final Eq. 25 terms (unit-volume frame), outputs in the targets' original coordinates.
+  SymmetricVolumeMapResult finish() {
+    set_weights();
+    e12_.set_maps(P12_, P21_);
+    e21_.set_maps(P21_, P12_);
+    DirectionalEnergy::Terms t1, t2;
+    res_.E = e12_.evaluate(X12_, nullptr, &t1) + e21_.evaluate(X21_, nullptr, &t2);
+    res_.E_arap = t1.arap + t2.arap;
+    res_.E_R = t1.reversibility + t2.reversibility;
+    res_.E_P = t1.projection_forward + t2.projection_forward +
+               opt_.backward_projection_scale * (t1.projection_backward + t2.projection_backward);
+    res_.E_Q = t1.auxiliary + t2.auxiliary;
+    res_.P12 = P12_;
+    res_.P21 = P21_;
+    if (opt_.land_on_target) {  // X is the map files' positions: the same numbers, unscaled
+      res_.map12 = final12_;
+      res_.map21 = final21_;
+      res_.X12 = map_positions(final12_, B_.V, B_.T);
+      res_.X21 = map_positions(final21_, A_.V, A_.T);
+    } else {
+      res_.X12 = nB_.undo(X12_);
+      res_.X21 = nA_.undo(X21_);
+      std::vector<int> b1, b2;
+      for (int v = 0; v < int(bd1_.size()); ++v)
+        if (bd1_[v]) b1.push_back(v);
+      for (int v = 0; v < int(bd2_.size()); ++v)
+        if (bd2_[v]) b2.push_back(v);
+      res_.map12 = locate_in_tets(B_, res_.X12, b1);
+      res_.map21 = locate_in_tets(A_, res_.X21, b2);
+    }
+    return std::move(res_);
   }
-  return res;
+
+  const TetMesh& A_;
+  const TetMesh& B_;
+  const SymmetricVolumeMapOptions& opt_;
+  const ProgressCallback& progress_;
+  Normalization nA_, nB_;
+  TetMesh M1_, M2_;  // unit volume
+  DirectionalEnergy e12_, e21_;
+  PStep p12_, p21_;
+  BarycentricMap P12_, P21_;
+  const BarycentricMap P12_0_, P21_0_;
+  Eigen::MatrixXd X12_, X21_;
+  std::vector<char> bd1_, bd2_;
+  std::vector<int> all1_, all2_, int1_, int2_;
+  std::vector<std::vector<int>> vv1_, vv2_, vt1_, vt2_;
+  int global_iter_ = 0;
+  double beta_ = 0, gamma_ = 0;
+  BarycentricMap final12_, final21_;  // the map files when landing
+  SymmetricVolumeMapResult res_;
+};
+
+}  // namespace
+
+SymmetricVolumeMapResult symmetric_volume_map(const TetMesh& A, const TetMesh& B,
+                                              const BarycentricMap& init12,
+                                              const BarycentricMap& init21,
+                                              const SymmetricVolumeMapOptions& opt,
+                                              const ProgressCallback& progress) {
+  validate_map(init12, A.num_vertices(), B.num_tets(), 4, "initial map A->B");
+  validate_map(init21, B.num_vertices(), A.num_tets(), 4, "initial map B->A");
+  return SymmetricMapSolver(A, B, init12, init21, opt, progress).run();
 }
 
 }  // namespace shapemap

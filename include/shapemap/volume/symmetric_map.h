@@ -56,6 +56,10 @@ struct SymmetricVolumeMapOptions {
                                    // sat at E = 28.87 falling 4e-7 per iteration for 150)
   int max_iterations = 50;     // Sec. 5.4 (iii): outer iterations per stage
   int min_iterations = 1;      // outer iterations before a stopping rule may apply
+  // Ours (issue 19): Anderson acceleration (optim/anderson.h) of the P/X alternation of
+  // stages 2 and 4 with this memory, once beta and gamma are final; each proposal is kept
+  // only if Eq. 25 after its P-step is below the last X-step's energy. 0 = off.
+  int anderson_memory = 0;
   int xstep_iterations = 15;   // L-BFGS iterations per X-step (Sec. 5.2; not in the paper:
                                // 15 gave the same maps as 30 on a 30k-tet pair at half the
                                // cost, docs/methods.md)
@@ -107,6 +111,7 @@ struct SymmetricMapStage {
   double newton_seconds[4] = {0, 0, 0, 0};   // Newton X-steps, both directions: energy
                                              // evaluations, Hessian assembly, factorization,
                                              // solves
+  int anderson_accepted = 0, anderson_rejected = 0;  // accelerated points kept / undone
   std::string stop_reason;   // "gradient", "decrease", "iterations" (stages 2, 4)
   std::vector<double> energy_history, gradient_history;  // per outer iteration
 };
