@@ -1,6 +1,8 @@
 // Blended Intrinsic Maps (Kim, Lipman, Funkhouser 2011). See bim.h for the pipeline and
 // docs/methods.md ("Blended Intrinsic Maps") for every deviation from the paper.
 #include "shapemap/surface/bim.h"
+#include "shapemap/splitmix.h"
+#include "shapemap/timing.h"
 #include "shapemap/adjacency.h"
 #include "shapemap/checks.h"
 #include "shapemap/error.h"
@@ -21,18 +23,6 @@
 namespace shapemap {
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
-
-std::uint64_t splitmix64(std::uint64_t& x) {
-  std::uint64_t z = (x += 0x9e3779b97f4a7c15ULL);
-  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-  return z ^ (z >> 31);
-}
 
 // Vertices within geodesic radius r of s along mesh edges (Dijkstra), with distances.
 void dijkstra_ball(const std::vector<std::vector<std::pair<int, double>>>& adj, int s, double r,
@@ -91,6 +81,80 @@ std::vector<int> agd_maxima(const TriMesh& mesh, const Eigen::VectorXd& agd, dou
   return out;
 }
 
+// Interpolation weights from the k samples P_even to all n vertices (Sec. 5): Gaussian in
+// the geodesic distance dist (n×k) with width rho, cut at 3 rho, rows normalized; a vertex
+// with no sample within 3 rho takes its nearest sample.
+Eigen::SparseMatrix<double, Eigen::RowMajor> gaussian_interpolation(const Eigen::MatrixXd& dist, double rho) {
+  const int n = int(dist.rows()), k = int(dist.cols());
+  std::vector<std::vector<std::pair<int, double>>> rows(n);
+#pragma omp parallel for schedule(static)
+  for (int v = 0; v < n; ++v) {
+    double sum = 0;
+    int nearest = 0;
+    for (int j = 0; j < k; ++j) {
+      double d = dist(v, j);
+      if (d < dist(v, nearest)) nearest = j;
+      if (d < 3 * rho) {
+        double w = std::exp(-d * d / (2 * rho * rho));
+        rows[v].push_back({j, w});
+        sum += w;
+      }
+    }
+    if (rows[v].empty() || !(sum > 0)) {
+      rows[v].assign(1, {nearest, 1.0});
+      sum = 1;
+    }
+    for (auto& e : rows[v]) e.second /= sum;
+  }
+  std::vector<Eigen::Triplet<double>> trip;
+  for (int v = 0; v < n; ++v)
+    for (auto& e : rows[v]) trip.emplace_back(v, e.first, e.second);
+  Eigen::SparseMatrix<double, Eigen::RowMajor> W(n, k);
+  W.setFromTriplets(trip.begin(), trip.end());
+  return W;
+}
+
+// Greedy nearest-neighbour tour over the samples `even` (vertex ids) from sample 0, by the
+// geodesic distances dist (n×k).
+std::vector<int> nearest_neighbour_tour(const std::vector<int>& even, const Eigen::MatrixXd& dist) {
+  const int k = int(dist.cols());
+  std::vector<char> used(k, 0);
+  std::vector<int> chain;
+  int cur = 0;
+  for (int it = 0; it < k; ++it) {
+    chain.push_back(cur);
+    used[cur] = 1;
+    int best = -1;
+    for (int j = 0; j < k; ++j)
+      if (!used[j] && (best < 0 || dist(even[j], cur) < dist(even[best], cur))) best = j;
+    if (best < 0) break;
+    cur = best;
+  }
+  return chain;
+}
+
+// Breadth-first order of the n vertices of F (every component, roots in index order) and
+// each vertex's BFS parent (-1 at a root).
+void breadth_first_order(const Eigen::MatrixXi& F, int n, std::vector<int>& order, std::vector<int>& parent) {
+  auto nb = vertex_neighbors(F, n);
+  order.clear();
+  parent.assign(n, -2);
+  for (int root = 0; root < n; ++root) {
+    if (parent[root] != -2) continue;
+    parent[root] = -1;
+    size_t head = order.size();
+    order.push_back(root);
+    while (head < order.size()) {
+      int v = order[head++];
+      for (int u : nb[v])
+        if (parent[u] == -2) {
+          parent[u] = v;
+          order.push_back(u);
+        }
+    }
+  }
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------
@@ -141,48 +205,9 @@ BIMSurface bim_prepare(const TriMesh& input, const std::string& name, const BIMO
   }
   // Gaussian interpolation weights from P_even to all vertices (Sec. 5).
   const double rho = opt.interpolation_sigma > 0 ? opt.interpolation_sigma : 1.0 / std::sqrt(double(k));
-  {
-    std::vector<std::vector<std::pair<int, double>>> rows(n);
-#pragma omp parallel for schedule(static)
-    for (int v = 0; v < n; ++v) {
-      double sum = 0;
-      int nearest = 0;
-      for (int j = 0; j < k; ++j) {
-        double d = s.even_dist(v, j);
-        if (d < s.even_dist(v, nearest)) nearest = j;
-        if (d < 3 * rho) {
-          double w = std::exp(-d * d / (2 * rho * rho));
-          rows[v].push_back({j, w});
-          sum += w;
-        }
-      }
-      if (rows[v].empty() || !(sum > 0)) {
-        rows[v].assign(1, {nearest, 1.0});
-        sum = 1;
-      }
-      for (auto& e : rows[v]) e.second /= sum;
-    }
-    std::vector<Eigen::Triplet<double>> trip;
-    for (int v = 0; v < n; ++v)
-      for (auto& e : rows[v]) trip.emplace_back(v, e.first, e.second);
-    s.interp.resize(n, k);
-    s.interp.setFromTriplets(trip.begin(), trip.end());
-  }
+  s.interp = gaussian_interpolation(s.even_dist, rho);
   // Visiting order of P_even: greedy nearest-neighbour tour (coherent walks).
-  {
-    std::vector<char> used(k, 0);
-    int cur = 0;
-    s.even_chain.clear();
-    for (int it = 0; it < k; ++it) {
-      s.even_chain.push_back(cur);
-      used[cur] = 1;
-      int best = -1;
-      for (int j = 0; j < k; ++j)
-        if (!used[j] && (best < 0 || s.even_dist(s.even[j], cur) < s.even_dist(s.even[best], cur))) best = j;
-      if (best < 0) break;
-      cur = best;
-    }
-  }
+  s.even_chain = nearest_neighbour_tour(s.even, s.even_dist);
   s.timings.push_back({"features", seconds_since(t0)});
   report(progress, "bim/prepare " + name, 0.6);
 
@@ -207,25 +232,7 @@ BIMSurface bim_prepare(const TriMesh& input, const std::string& name, const BIMO
   t0 = Clock::now();
   s.closest = std::make_shared<ClosestPoint3>(s.mesh.V, s.mesh.F);
   // BFS order (walk starts from the parent's answer).
-  {
-    auto nb = vertex_neighbors(s.mesh.F, n);
-    s.bfs_order.clear();
-    s.bfs_parent.assign(n, -2);
-    for (int root = 0; root < n; ++root) {
-      if (s.bfs_parent[root] != -2) continue;
-      s.bfs_parent[root] = -1;
-      size_t head = s.bfs_order.size();
-      s.bfs_order.push_back(root);
-      while (head < s.bfs_order.size()) {
-        int v = s.bfs_order[head++];
-        for (int u : nb[v])
-          if (s.bfs_parent[u] == -2) {
-            s.bfs_parent[u] = v;
-            s.bfs_order.push_back(u);
-          }
-      }
-    }
-  }
+  breadth_first_order(s.mesh.F, n, s.bfs_order, s.bfs_parent);
   s.timings.push_back({"closest_point_tree", seconds_since(t0)});
   report(progress, "bim/prepare " + name, 1.0);
   return s;

@@ -1,6 +1,7 @@
 // Spherical area-preserving map: linear puncture map, conformal energy minimization,
 // stretch energy minimization (see the header and docs/methods.md).
 #include "shapemap/volume/sphere_param.h"
+#include "shapemap/timing.h"
 #include "shapemap/volume/latitude_longitude.h"
 #include "shapemap/error.h"
 #include "shapemap/geometry/sparse_cholesky.h"
@@ -293,7 +294,7 @@ SphereParamResult spherical_area_preserving_map(const TriMesh& surface,
                                                 const Eigen::VectorXd& face_weights,
                                                 const SphereParamOptions& opt,
                                                 const ProgressCallback& progress) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   const Eigen::MatrixXd& V = surface.V;
   const Eigen::MatrixXi& F = surface.F;
   const Eigen::Index n = V.rows(), m = F.rows();
@@ -604,7 +605,7 @@ SphereParamResult spherical_area_preserving_map(const TriMesh& surface,
     res.conformal_energy = cem_energy;
   }
   report(progress, "ball/sphere-map", 1.0);
-  res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  res.seconds = seconds_since(t0);
   return res;
 }
 
