@@ -483,6 +483,103 @@ struct DirectionLog {
 
 }  // namespace
 
+namespace {
+
+// One outer iteration of Algorithm 1: P step, Y step and (bijective) Q step, Y~ step, with
+// the energy terms at its end and the time of each kind of step.
+ElasticIterate alternate_once(Side& a, Side& b, double beta, double gamma, bool bij, const ElasticOptions& opt,
+                              double f_tol) {
+  ElasticIterate it;
+  it.beta = beta;
+  EnergyParts pa, pb;
+  auto t0 = Clock::now();
+  projection_step(a, b, beta, gamma, bij, opt.safe_projection);  // P step
+  it.time_projection += seconds_since(t0);
+  t0 = Clock::now();
+  it.inner_iterations += deformation_step(a, b, beta, gamma, bij, opt, f_tol, pa, it.inner_evaluations);  // Y step
+  it.time_deformation += seconds_since(t0);
+  if (bij) {
+    t0 = Clock::now();
+    projection_step(b, a, beta, gamma, bij, opt.safe_projection);  // Q step
+    it.time_projection += seconds_since(t0);
+    t0 = Clock::now();
+    it.inner_iterations += deformation_step(b, a, beta, gamma, bij, opt, f_tol, pb, it.inner_evaluations);  // Y~ step
+    it.time_deformation += seconds_since(t0);
+    it.deformation = pa.deformation + pb.deformation;
+    it.mismatch = pa.mismatch + pb.mismatch;
+    // Q changed after side a's step: recompute gamma |Q Y - X~| with the final Q.
+    {
+      RowMat3 QY;
+      apply_map(b.P, a.F, Eigen::MatrixXd(a.Y), QY);
+      double r = 0;
+      for (int j = 0; j < QY.rows(); ++j) r += b.mass(j) * (QY.row(j) - b.X.row(j)).squaredNorm();
+      it.reversibility = gamma * r + pb.reversibility;
+    }
+  } else {
+    it.deformation = pa.deformation;
+    it.mismatch = pa.mismatch;
+  }
+  it.energy = it.deformation + it.mismatch + it.reversibility;
+  return it;
+}
+
+// Collapse guard: per direction the last iterate, or the latest one with no more flipped or
+// collapsed triangles than the start, or the start (ElasticOptions::keep_no_worse).
+void collapse_guard(const DirectionLog& L, const Side& s, const BarycentricMap& init, const TriMesh& T,
+                    const Normalization& nt, bool keep_no_worse, int outer_iterations, ElasticGuard& g,
+                    BarycentricMap& P_out, Eigen::MatrixXd& Y_out, BarycentricMap& last_out) {
+  g.initial_bad = L.map0.bad();
+  g.last_bad = L.map_folds(s.P, nullptr).bad();
+  g.iteration = outer_iterations;
+  g.returned = ElasticReturned::Last;
+  g.returned_bad = g.last_bad;
+  P_out = s.P;
+  Y_out = nt.undo(Eigen::MatrixXd(s.Y));
+  if (!keep_no_worse || g.last_bad <= g.initial_bad) return;
+  last_out = s.P;
+  if (L.keep_iteration > 0) {
+    g.returned = ElasticReturned::EarlierIterate;
+    g.iteration = L.keep_iteration;
+    P_out = L.keep_P;
+    Y_out = nt.undo(L.keep_Y);
+    g.returned_bad = L.map_folds(P_out, nullptr).bad();
+  } else {
+    g.returned = ElasticReturned::Initial;
+    g.iteration = 0;
+    P_out = init;
+    Y_out = map_positions(init, T.V, T.F);
+    g.returned_bad = g.initial_bad;
+  }
+}
+
+// The fold logs of both directions (issue 20: fold counts per outer iteration, first
+// collapses, the collapse guard), on unit-area copies so that the counts are the ones
+// report.json shows.
+void setup_direction_logs(const TriMesh& A, const TriMesh& B, const BarycentricMap& init_AB,
+                          const BarycentricMap& init_BA, const Side& a, const Side& b, bool bij,
+                          bool normalize_area, DirectionLog& logA, DirectionLog& logB) {
+  const Normalization ua = unit_area_normalization(A), ub = unit_area_normalization(B);
+  const Eigen::MatrixXd XA = ua.apply(A.V), XB = ub.apply(B.V);
+  const Eigen::MatrixXd NA = face_normals(XA, A.F), NB = face_normals(XB, B.F);
+  auto setup = [&](DirectionLog& L, const TriMesh& S, const Eigen::MatrixXd& Xs,
+                   const Eigen::MatrixXd& Xt, const Eigen::MatrixXi& Ft, const Eigen::MatrixXd& Nt,
+                   const Normalization& ut, const BarycentricMap& init, const Side& side) {
+    L.S = &S;
+    L.Xs = Xs;
+    L.Xt = Xt;
+    L.Ft = Ft;
+    L.Nt = Nt;
+    L.to_unit_target = ut;
+    L.working_is_unit = normalize_area;
+    L.map0 = L.map_folds(init, &L.map0_faces);  // the user's map, as the CLI reports it
+    L.shell0 = L.shell_folds(side.Y, side.P, &L.shell0_faces);
+  };
+  setup(logA, A, XA, XB, B.F, NB, ub, init_AB, a);
+  if (bij) setup(logB, B, XB, XA, A.F, NA, ua, init_BA, b);
+}
+
+}  // namespace
+
 ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
                                      const BarycentricMap& init_AB,
                                      const BarycentricMap& init_BA, const ElasticOptions& opt) {
@@ -545,26 +642,7 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
   // Issue 20: fold counts per outer iteration, first collapses, and the collapse guard. The
   // counts are taken on unit-area copies so that they are the ones report.json shows.
   DirectionLog logA, logB;
-  {
-    const Normalization ua = unit_area_normalization(A), ub = unit_area_normalization(B);
-    const Eigen::MatrixXd XA = ua.apply(A.V), XB = ub.apply(B.V);
-    const Eigen::MatrixXd NA = face_normals(XA, A.F), NB = face_normals(XB, B.F);
-    auto setup = [&](DirectionLog& L, const TriMesh& S, const Eigen::MatrixXd& Xs,
-                     const Eigen::MatrixXd& Xt, const Eigen::MatrixXi& Ft, const Eigen::MatrixXd& Nt,
-                     const Normalization& ut, const BarycentricMap& init, const Side& side) {
-      L.S = &S;
-      L.Xs = Xs;
-      L.Xt = Xt;
-      L.Ft = Ft;
-      L.Nt = Nt;
-      L.to_unit_target = ut;
-      L.working_is_unit = opt.normalize_area;
-      L.map0 = L.map_folds(init, &L.map0_faces);  // the user's map, as the CLI reports it
-      L.shell0 = L.shell_folds(side.Y, side.P, &L.shell0_faces);
-    };
-    setup(logA, A, XA, XB, B.F, NB, ub, init_AB, a);
-    if (bij) setup(logB, B, XB, XA, A.F, NA, ua, init_BA, b);
-  }
+  setup_direction_logs(A, B, init_AB, init_BA, a, b, bij, opt.normalize_area, logA, logB);
   res.time_setup = seconds_since(t_start);
 
   const double gamma_full = opt.gamma * wscale;
@@ -577,37 +655,7 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
     const double gamma = opt.gamma_ramp ? gamma_full * frac : gamma_full;
     const double f_tol =
         k < opt.beta_ramp_iterations && opt.inner_f_tol_ramp > 0 ? opt.inner_f_tol_ramp : opt.inner_f_tol;
-    ElasticIterate it;
-    it.beta = beta;
-    EnergyParts pa, pb;
-    auto t0 = Clock::now();
-    projection_step(a, b, beta, gamma, bij, opt.safe_projection);  // P step
-    it.time_projection += seconds_since(t0);
-    t0 = Clock::now();
-    it.inner_iterations += deformation_step(a, b, beta, gamma, bij, opt, f_tol, pa, it.inner_evaluations);  // Y step
-    it.time_deformation += seconds_since(t0);
-    if (bij) {
-      t0 = Clock::now();
-      projection_step(b, a, beta, gamma, bij, opt.safe_projection);  // Q step
-      it.time_projection += seconds_since(t0);
-      t0 = Clock::now();
-      it.inner_iterations += deformation_step(b, a, beta, gamma, bij, opt, f_tol, pb, it.inner_evaluations);  // Y~ step
-      it.time_deformation += seconds_since(t0);
-      it.deformation = pa.deformation + pb.deformation;
-      it.mismatch = pa.mismatch + pb.mismatch;
-      // Q changed after side a's step: recompute gamma |Q Y - X~| with the final Q.
-      {
-        RowMat3 QY;
-        apply_map(b.P, a.F, Eigen::MatrixXd(a.Y), QY);
-        double r = 0;
-        for (int j = 0; j < QY.rows(); ++j) r += b.mass(j) * (QY.row(j) - b.X.row(j)).squaredNorm();
-        it.reversibility = gamma * r + pb.reversibility;
-      }
-    } else {
-      it.deformation = pa.deformation;
-      it.mismatch = pa.mismatch;
-    }
-    it.energy = it.deformation + it.mismatch + it.reversibility;
+    ElasticIterate it = alternate_once(a, b, beta, gamma, bij, opt, f_tol);
     logA.after_iteration(a, k + 1, opt.keep_no_worse, it.P_folds, it.Y_folds, res.first_P_collapse,
                          res.first_Y_collapse);
     if (bij)
@@ -631,37 +679,12 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
   }
   res.degenerate_faces_final =
       count_degenerate(a, opt.degenerate_tol) + (bij ? count_degenerate(b, opt.degenerate_tol) : 0);
-  // Collapse guard: per direction the last iterate, or the latest one with no more flipped or
-  // collapsed triangles than the start, or the start (ElasticOptions::keep_no_worse).
-  auto guarded = [&](const DirectionLog& L, const Side& s, const BarycentricMap& init,
-                     const TriMesh& T, const Normalization& nt, ElasticGuard& g,
-                     BarycentricMap& P_out, Eigen::MatrixXd& Y_out, BarycentricMap& last_out) {
-    g.initial_bad = L.map0.bad();
-    g.last_bad = L.map_folds(s.P, nullptr).bad();
-    g.iteration = res.outer_iterations;
-    g.returned = ElasticReturned::Last;
-    g.returned_bad = g.last_bad;
-    P_out = s.P;
-    Y_out = nt.undo(Eigen::MatrixXd(s.Y));
-    if (!opt.keep_no_worse || g.last_bad <= g.initial_bad) return;
-    last_out = s.P;
-    if (L.keep_iteration > 0) {
-      g.returned = ElasticReturned::EarlierIterate;
-      g.iteration = L.keep_iteration;
-      P_out = L.keep_P;
-      Y_out = nt.undo(L.keep_Y);
-      g.returned_bad = L.map_folds(P_out, nullptr).bad();
-    } else {
-      g.returned = ElasticReturned::Initial;
-      g.iteration = 0;
-      P_out = init;
-      Y_out = map_positions(init, T.V, T.F);
-      g.returned_bad = g.initial_bad;
-    }
-  };
   res.projection_rows_kept = a.rows_kept + b.rows_kept;
-  guarded(logA, a, init_AB, B, nb, res.guard_AB, res.map_AB, res.Y, res.last_AB);
-  if (bij) guarded(logB, b, init_BA, A, na, res.guard_BA, res.map_BA, res.Ytilde, res.last_BA);
+  collapse_guard(logA, a, init_AB, B, nb, opt.keep_no_worse, res.outer_iterations, res.guard_AB, res.map_AB, res.Y,
+                 res.last_AB);
+  if (bij)
+    collapse_guard(logB, b, init_BA, A, na, opt.keep_no_worse, res.outer_iterations, res.guard_BA, res.map_BA,
+                   res.Ytilde, res.last_BA);
   res.time_total = seconds_since(t_start);
   return res;
 }
