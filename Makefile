@@ -3,7 +3,7 @@ BUILD ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?=
 
-.PHONY: build deps test demo bench check-sanitizers clean
+.PHONY: build deps test demo bench check-sanitizers clean tool
 
 deps:
 	@bash scripts/install-deps
@@ -11,13 +11,19 @@ deps:
 $(BUILD)/CMakeCache.txt: | deps
 	cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release $(CMAKE_FLAGS)
 
+# Everything: the tool, the tests, the benchmarks.
 build: deps $(BUILD)/CMakeCache.txt
 	cmake --build $(BUILD) -j $(JOBS)
+
+# The command-line tool alone (no tests, no benchmarks).
+tool: deps $(BUILD)/CMakeCache.txt
+	cmake --build $(BUILD) -j $(JOBS) --target shapemap
 
 test: build
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS) --timeout 900
 
-demo: build
+# The demo runs only the tool, so it builds only the tool.
+demo: tool
 	$(BUILD)/shapemap demo -o demo-output
 
 bench: build

@@ -10,7 +10,7 @@
 #include "shapemap/render/report_html.h"
 #include "shapemap/error.h"
 #include "shapemap/io.h"
-#include <chrono>
+#include "shapemap/timing.h"
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -62,15 +62,10 @@ struct DemoArgs {
   bool index_only = false;
 };
 
-int run_demo(const DemoArgs& a, const GlobalOptions& g) {
-  fs::create_directories(a.out);
-  const std::string D = a.out;
-  const std::string seed = std::to_string(g.seed);
-  std::vector<std::string> common = {"shapemap", "--seed", seed};
-  if (g.threads > 0) common.insert(common.end(), {"--threads", std::to_string(g.threads)});
-  if (g.quiet) common.push_back("--quiet");
+// The demo's stages in order: each step is one command line of the tool.
+std::vector<Step> demo_steps(const DemoArgs& a, const std::string& D) {
   const std::string P = D + "/pair";
-  std::vector<Step> steps = {
+  return {
       {"generate", "pair", "creature pair with ground truth (surfaces + volumes)",
        {"generate", "-o", P, "--shape", "pair", "--kind", "non-isometric", "--vertices", std::to_string(a.vertices),
         "--tets", "--tet-count", std::to_string(a.tets)}},
@@ -103,36 +98,108 @@ int run_demo(const DemoArgs& a, const GlobalOptions& g) {
         D + "/volume_ball/map_BA.txt", "--truth", P + "/truth_vol_AB.txt", "-o",
         D + "/volume_ball/evaluation.json"}},
   };
-  int failures = 0;
-  for (auto& s : steps) {
-    if (a.index_only) {
-      // Not run now: the step counts as done when its output is there.
-      const bool eval = s.name.find("eval") != std::string::npos;
-      s.code = fs::exists(D + "/" + s.folder + (eval ? "/evaluation.json" : "/report.json")) ? 0 : -1;
-      continue;
+}
+
+struct Row {
+  std::string method, time, metrics;
+};
+
+// One demo run: its steps, then the summary rows read back from the steps' reports.
+class Demo {
+ public:
+  Demo(const DemoArgs& a, const GlobalOptions& g) : a_(a), g_(g), D_(a.out), steps_(demo_steps(a, a.out)) {}
+
+  // Runs every step in order (with --index-only, only checks which outputs exist); returns
+  // the number of failed steps.
+  int run_steps() {
+    std::vector<std::string> common = {"shapemap", "--seed", std::to_string(g_.seed)};
+    if (g_.threads > 0) common.insert(common.end(), {"--threads", std::to_string(g_.threads)});
+    if (g_.quiet) common.push_back("--quiet");
+    int failures = 0;
+    for (auto& s : steps_) {
+      if (a_.index_only) {
+        // Not run now: the step counts as done when its output is there.
+        const bool eval = s.name.find("eval") != std::string::npos;
+        s.code = fs::exists(D_ + "/" + s.folder + (eval ? "/evaluation.json" : "/report.json")) ? 0 : -1;
+        continue;
+      }
+      std::vector<std::string> args = common;
+      args.insert(args.end(), s.args.begin(), s.args.end());
+      if (!g_.quiet) std::cerr << "== " << s.name << ": " << s.what << "\n";
+      const auto t0 = Clock::now();
+      s.code = run(args);
+      s.seconds = seconds_since(t0);
+      if (s.code != 0) {
+        ++failures;
+        std::cerr << "demo: step '" << s.name << "' failed with exit code " << s.code << "\n";
+      }
     }
-    std::vector<std::string> args = common;
-    args.insert(args.end(), s.args.begin(), s.args.end());
-    if (!g.quiet) std::cerr << "== " << s.name << ": " << s.what << "\n";
-    auto t0 = std::chrono::steady_clock::now();
-    s.code = run(args);
-    s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    if (s.code != 0) {
-      ++failures;
-      std::cerr << "demo: step '" << s.name << "' failed with exit code " << s.code << "\n";
-    }
+    return failures;
   }
-  // Summary table.
-  auto rep = [&](const std::string& f) { return read_json(D + "/" + f + "/report.json"); };
-  auto ev = [&](const std::string& f) { return read_json(D + "/" + f + "/evaluation.json"); };
-  struct Row {
-    std::string method, time, metrics;
-  };
-  std::vector<Row> rows;
-  auto time_of = [&](const std::string& name) {
-    for (auto& s : steps)
+
+  // The summary table's rows: time and key metrics per method.
+  void summarize() {
+    rows_.push_back({"generate", time_of("generate"), ""});
+    for (std::string m : {"bim", "elastic"}) {
+      nlohmann::json e = ev(m);
+      rows_.push_back({m == "bim" ? "BIM" : "elastic", time_of(m == "bim" ? "BIM" : "elastic"),
+                       "geodesic error mean " + pick(e, {"/geodesic_error/mean", "/mean"}) + ", within 0.1: " +
+                           pick(e, {"/geodesic_error/fraction_within_0.1", "/fraction_within_0.1"})});
+    }
+    volume_row("volume map", "volume");
+    nlohmann::json r = rep("ball");
+    rows_.push_back({"ball", time_of("ball"),
+                     "mean D_V " + pick(r, {"/metrics/D_V/mean"}) + ", folded " + pick(r, {"/metrics/folded_tets"}) +
+                         ", E_I " + pick(r, {"/optimization/E_I_after_vsem"}) + " -> " +
+                         pick(r, {"/optimization/E_I_final"})});
+    volume_row("register", "register");
+    volume_row("ball+volume", "volume_ball");
+  }
+
+  // The table on stdout and in summary.txt; index.html: the summary, then every stage's
+  // report.html (3D views and metrics) inline. Each report keeps its own folder and
+  // scripts; an iframe shows it as it is, from file://.
+  void write_outputs() {
+    std::ostringstream table;
+    table << "\n" << std::left;
+    char line[512];
+    std::snprintf(line, sizeof line, "%-12s %-14s %s\n", "method", "time", "key metrics");
+    table << line;
+    for (auto& r : rows_) {
+      std::snprintf(line, sizeof line, "%-12s %-14s %s\n", r.method.c_str(), r.time.c_str(), r.metrics.c_str());
+      table << line;
+    }
+    std::cout << table.str();
+    std::ostringstream html;
+    html << "<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>shapemap demo</title><style>"
+         << "body{font-family:sans-serif;margin:1em 2em}table{border-collapse:collapse}"
+         << "th,td{border:1px solid #ccc;padding:2px 8px;text-align:left;font-size:14px}th{background:#f3f3f3}"
+         << "iframe{width:100%;height:820px;border:1px solid #bbb}section{margin:1.5em 0}</style></head><body>"
+         << "<h1>shapemap demo</h1><table id=\"summary\"><tr><th>method</th><th>time</th><th>key metrics</th></tr>";
+    for (auto& r : rows_)
+      html << "<tr><td>" << html_escape(r.method) << "</td><td>" << html_escape(r.time) << "</td><td>"
+           << html_escape(r.metrics) << "</td></tr>";
+    html << "</table>";
+    for (auto& s : steps_) {
+      if (s.name.find("eval") != std::string::npos || !fs::exists(D_ + "/" + s.folder + "/report.html")) continue;
+      const std::string page = s.folder + "/report.html";
+      html << "<section><h2>" << html_escape(s.name) << "</h2><p>" << html_escape(s.what) << " ("
+           << html_escape(time_of(s.name)) << "; <a href=\"" << page << "\">open alone</a>)</p><iframe src=\""
+           << page << "\" title=\"" << html_escape(s.name) << "\"></iframe></section>";
+    }
+    html << "</body></html>\n";
+    write_text_atomic(D_ + "/index.html", html.str());
+    write_text_atomic(D_ + "/summary.txt", table.str());
+  }
+
+ private:
+  nlohmann::json rep(const std::string& f) const { return read_json(D_ + "/" + f + "/report.json"); }
+  nlohmann::json ev(const std::string& f) const { return read_json(D_ + "/" + f + "/evaluation.json"); }
+
+  std::string time_of(const std::string& name) const {
+    for (auto& s : steps_)
       if (s.name == name) {
-        if (a.index_only) {
+        if (a_.index_only) {
           // The command's own total (report.json) when the step was not run now.
           const std::string t = pick(rep(s.folder), {"/timings/total"}, "%.1f");
           return s.code == 0 ? t + (t == "-" ? "" : " s") : std::string("not run");
@@ -142,64 +209,30 @@ int run_demo(const DemoArgs& a, const GlobalOptions& g) {
         return std::string(buf);
       }
     return std::string("-");
-  };
-  rows.push_back({"generate", time_of("generate"), ""});
-  for (std::string m : {"bim", "elastic"}) {
-    nlohmann::json e = ev(m);
-    rows.push_back({m == "bim" ? "BIM" : "elastic", time_of(m == "bim" ? "BIM" : "elastic"),
-                    "geodesic error mean " + pick(e, {"/geodesic_error/mean", "/mean"}) + ", within 0.1: " +
-                        pick(e, {"/geodesic_error/fraction_within_0.1", "/fraction_within_0.1"})});
   }
+
   // Volume maps: inverted tets, distortion and distance to the ground truth (Table 3 metrics).
-  auto volume_row = [&](const std::string& name, const std::string& folder) {
+  void volume_row(const std::string& name, const std::string& folder) {
     nlohmann::json e = ev(folder);
-    rows.push_back({name, time_of(name),
-                    "n_inv " + pick(e, {"/metrics/n_inv"}) + ", mean|detJ| " + pick(e, {"/metrics/det_J_mean"}) +
-                        ", error vs truth " + pick(e, {"/metrics/truth_error_mean"}) + " of diag"});
-  };
-  volume_row("volume map", "volume");
-  {
-    nlohmann::json r = rep("ball");
-    rows.push_back({"ball", time_of("ball"),
-                    "mean D_V " + pick(r, {"/metrics/D_V/mean"}) + ", folded " + pick(r, {"/metrics/folded_tets"}) +
-                        ", E_I " + pick(r, {"/optimization/E_I_after_vsem"}) + " -> " +
-                        pick(r, {"/optimization/E_I_final"})});
+    rows_.push_back({name, time_of(name),
+                     "n_inv " + pick(e, {"/metrics/n_inv"}) + ", mean|detJ| " + pick(e, {"/metrics/det_J_mean"}) +
+                         ", error vs truth " + pick(e, {"/metrics/truth_error_mean"}) + " of diag"});
   }
-  volume_row("register", "register");
-  volume_row("ball+volume", "volume_ball");
-  std::ostringstream table;
-  table << "\n" << std::left;
-  char line[512];
-  std::snprintf(line, sizeof line, "%-12s %-14s %s\n", "method", "time", "key metrics");
-  table << line;
-  for (auto& r : rows) {
-    std::snprintf(line, sizeof line, "%-12s %-14s %s\n", r.method.c_str(), r.time.c_str(), r.metrics.c_str());
-    table << line;
-  }
-  std::cout << table.str();
-  // index.html: the summary, then every stage's report.html (3D views and metrics) inline.
-  // Each report keeps its own folder and scripts; an iframe shows it as it is, from file://.
-  std::ostringstream html;
-  html << "<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>shapemap demo</title><style>"
-       << "body{font-family:sans-serif;margin:1em 2em}table{border-collapse:collapse}"
-       << "th,td{border:1px solid #ccc;padding:2px 8px;text-align:left;font-size:14px}th{background:#f3f3f3}"
-       << "iframe{width:100%;height:820px;border:1px solid #bbb}section{margin:1.5em 0}</style></head><body>"
-       << "<h1>shapemap demo</h1><table id=\"summary\"><tr><th>method</th><th>time</th><th>key metrics</th></tr>";
-  for (auto& r : rows)
-    html << "<tr><td>" << html_escape(r.method) << "</td><td>" << html_escape(r.time) << "</td><td>" << html_escape(r.metrics)
-         << "</td></tr>";
-  html << "</table>";
-  for (auto& s : steps) {
-    if (s.name.find("eval") != std::string::npos || !fs::exists(D + "/" + s.folder + "/report.html")) continue;
-    const std::string page = s.folder + "/report.html";
-    html << "<section><h2>" << html_escape(s.name) << "</h2><p>" << html_escape(s.what) << " (" << html_escape(time_of(s.name))
-         << "; <a href=\"" << page << "\">open alone</a>)</p><iframe src=\"" << page << "\" title=\""
-         << html_escape(s.name) << "\"></iframe></section>";
-  }
-  html << "</body></html>\n";
-  write_text_atomic(D + "/index.html", html.str());
-  write_text_atomic(D + "/summary.txt", table.str());
-  if (!g.quiet) std::cerr << "demo: outputs in " << D << "/ (open " << D << "/index.html)\n";
+
+  const DemoArgs& a_;
+  const GlobalOptions& g_;
+  const std::string D_;
+  std::vector<Step> steps_;
+  std::vector<Row> rows_;
+};
+
+int run_demo(const DemoArgs& a, const GlobalOptions& g) {
+  fs::create_directories(a.out);
+  Demo demo(a, g);
+  const int failures = demo.run_steps();
+  demo.summarize();
+  demo.write_outputs();
+  if (!g.quiet) std::cerr << "demo: outputs in " << a.out << "/ (open " << a.out << "/index.html)\n";
   return failures == 0 ? 0 : 1;
 }
 

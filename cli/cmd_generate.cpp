@@ -12,6 +12,7 @@
 // moved into place at the end.
 #include "common.h"
 #include "shapemap/error.h"
+#include "shapemap/timing.h"
 #include "shapemap/generate.h"
 #include "shapemap/geometry/closest_point.h"
 #include "shapemap/io.h"
@@ -38,10 +39,6 @@ struct GenArgs {
   int tet_count = 20000;
 };
 
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
 TriMesh make_shape(const std::string& shape, std::uint64_t seed, int n) {
   if (shape == "creature") return make_creature(seed, n);
   if (shape == "sphere") return make_sphere(n);
@@ -63,7 +60,7 @@ TetMesh tetrahedralize_generated(const TriMesh& s, int tets, std::uint64_t seed,
 }
 
 int run_single(const GenArgs& a, std::uint64_t seed, const GlobalOptions& g) {
-  auto t0 = std::chrono::steady_clock::now();
+  auto t0 = Clock::now();
   TriMesh s = make_shape(a.shape, seed, a.vertices);
   std::string msg;
   if (is_surface_path(a.output)) {
@@ -96,7 +93,7 @@ int run_pair(const GenArgs& a, std::uint64_t seed, const GlobalOptions& g) {
   if (is_surface_path(a.output) || is_volume_path(a.output))
     throw InputError(a.output + ": a pair is written to a folder, not a single file");
   OutputDir out(a.output);
-  auto t0 = std::chrono::steady_clock::now();
+  auto t0 = Clock::now();
   auto progress = make_progress(g);
   report(progress, "generate/pair", 0);
   GeneratedPair p = make_creature_pair(seed, kind, a.vertices);

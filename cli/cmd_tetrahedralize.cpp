@@ -6,6 +6,7 @@
 // input (one line naming the file and the problem).
 #include "common.h"
 #include "shapemap/boundary_chords.h"
+#include "shapemap/timing.h"
 #include "shapemap/error.h"
 #include "shapemap/io.h"
 #include "shapemap/volume/tetrahedralize.h"
@@ -40,10 +41,10 @@ int run_tetrahedralize(const TetArgs& a, const GlobalOptions& g) {
   opt.faithful_boundary = !a.no_features;
   opt.radius_edge_ratio = a.radius_edge;
   opt.seed = unsigned(g.seed);
-  auto t0 = std::chrono::steady_clock::now();
+  auto t0 = Clock::now();
   TetMesh mesh = tetrahedralize_input(surface, opt, make_progress(g), a.input, g.quiet);
   if (a.split_chords) split_boundary_chords(mesh);
-  double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  double secs = seconds_since(t0);
   write_volume(a.output, mesh);
   if (!g.quiet) {
     char line[256];

@@ -4,6 +4,7 @@
 // BALL a tet mesh with the same connectivity and the ball coordinates (OUT/ball.vtk of
 // `shapemap ball`).
 #include "ball_common.h"
+#include "eval_output.h"
 #include <iostream>
 
 namespace shapemap::cli {
@@ -46,10 +47,7 @@ Command register_evaluate_ball(CLI::App& evaluate, GlobalOptions& g) {
     nlohmann::json j = report_header(g, "evaluate ball");
     j["inputs"] = {{"A", a->A}, {"ball", a->ball}};
     j["metrics"] = ball_metrics_json(m);
-    if (a->out.empty())
-      std::cout << j.dump(2) << "\n";
-    else
-      write_json(a->out, j);
+    emit_evaluation(a->out, j);
     return 0;
   };
   return c;

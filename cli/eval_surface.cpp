@@ -13,6 +13,7 @@
 // same metrics for MAP_BA. --per-face adds the per-triangle values. JSON on stdout, or in
 // FILE with -o.
 #include "common.h"
+#include "eval_output.h"
 #include "shapemap/error.h"
 #include "shapemap/eval/surface_distortion.h"
 #include "shapemap/eval/surface_metrics.h"
@@ -152,11 +153,7 @@ Command register_evaluate_surface(CLI::App& evaluate, GlobalOptions& g) {
                                  {"max", d.maxCoeff()}};
       j["distortion_BA"] = distortion_json(B, A, ba, a->per_face);
     }
-    if (a->out.empty()) {
-      std::cout << j.dump(2) << "\n";
-    } else {
-      write_json(a->out, j);
-    }
+    emit_evaluation(a->out, j);
     return 0;
   };
   return c;

@@ -6,6 +6,7 @@
 // --truth: ground-truth images of A's vertices in B's coordinates, either a map file of
 // the same kind or a text file with one "x y z" line per vertex of A.
 #include "common.h"
+#include "eval_output.h"
 #include "shapemap/error.h"
 #include "shapemap/eval/volume_metrics.h"
 #include "shapemap/io.h"
@@ -92,10 +93,7 @@ Command register_evaluate_volume(CLI::App& evaluate, GlobalOptions& g) {
     if (!a->map_ba.empty()) j["inputs"]["map_BA"] = a->map_ba;
     if (!a->truth.empty()) j["inputs"]["truth"] = a->truth;
     j["metrics"] = volume_metrics_json(r);
-    if (a->out.empty())
-      std::cout << j.dump(2) << "\n";
-    else
-      write_json(a->out, j);
+    emit_evaluation(a->out, j);
     return 0;
   };
   return c;

@@ -17,6 +17,7 @@
 // the identity on no part but rigid deep inside each part.
 #include "internal.h"
 #include "shapemap/error.h"
+#include "shapemap/splitmix.h"
 #include "shapemap/generate.h"
 #include "shapemap/geometry/closest_point.h"
 
@@ -42,12 +43,7 @@ class Rng {
   std::mt19937_64 g_;
 };
 
-std::uint64_t mix(std::uint64_t x) {  // splitmix64 finalizer
-  x += 0x9e3779b97f4a7c15ULL;
-  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
-  return x ^ (x >> 31);
-}
+std::uint64_t mix(std::uint64_t x) { return splitmix64_hash(x); }
 
 enum PartId { Body = 0, Neck, Head, Tail, Thigh0, Shin0 = Thigh0 + 4, NumParts = Shin0 + 4 };
 

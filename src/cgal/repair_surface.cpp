@@ -66,6 +66,194 @@ std::vector<int> exact_duplicates(const Eigen::MatrixXd& V) {
   return rep;
 }
 
+// 2. The faces of in with vertices replaced by their representatives rep, without those with
+// a repeated vertex or repeating an earlier face; face_from: each kept face's input index.
+void nondegenerate_faces(const TriMesh& in, const std::vector<int>& rep, std::vector<std::array<int, 3>>& faces,
+                         std::vector<int>& face_from, int& repeated_vertex, int& repeated_face) {
+  const int m = int(in.F.rows());
+  std::vector<std::pair<std::array<int, 3>, int>> keys;
+  for (int f = 0; f < m; ++f) {
+    const std::array<int, 3> t = {rep[size_t(in.F(f, 0))], rep[size_t(in.F(f, 1))], rep[size_t(in.F(f, 2))]};
+    if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) {
+      ++repeated_vertex;
+      continue;
+    }
+    std::array<int, 3> k = t;
+    std::sort(k.begin(), k.end());
+    keys.push_back({k, f});
+  }
+  std::sort(keys.begin(), keys.end());
+  std::vector<char> keep(size_t(m), 0);
+  for (size_t k = 0; k < keys.size(); ++k) {
+    if (k > 0 && keys[k].first == keys[k - 1].first) {
+      ++repeated_face;
+      continue;
+    }
+    keep[size_t(keys[k].second)] = 1;
+  }
+  for (int f = 0; f < m; ++f)
+    if (keep[size_t(f)]) {
+      faces.push_back({rep[size_t(in.F(f, 0))], rep[size_t(in.F(f, 1))], rep[size_t(in.F(f, 2))]});
+      face_from.push_back(f);
+    }
+}
+
+// 4. Zero-area faces removed (CGAL's exact test; edges collapsed or flipped). On a copy: if
+// CGAL gives up, the surface is kept as it was (returns 0) and the guards note the faces.
+int remove_zero_area_faces(Mesh& mesh) {
+  int zero_area = 0;
+  for (FI f : mesh.faces()) zero_area += PMP::is_degenerate_triangle_face(f, mesh);
+  if (zero_area == 0) return 0;
+  Mesh trial = mesh;
+  bool ok = false;
+  try {
+    ok = PMP::remove_degenerate_faces(trial);
+  } catch (const std::exception&) {
+    ok = false;
+  }
+  if (!ok) return 0;
+  trial.collect_garbage();
+  mesh = std::move(trial);
+  return zero_area;
+}
+
+// 5. Components other than the largest (by area) set aside, when together they are small.
+void set_aside_small_components(Mesh& mesh, const SurfaceRepairOptions& opt, const std::string& note,
+                                std::vector<std::string>& notes) {
+  auto fcc = mesh.add_property_map<FI, std::size_t>("f:shapemap_cc", 0).first;
+  const std::size_t nc = PMP::connected_components(mesh, fcc);
+  if (nc > 1) {
+    std::vector<double> area(nc, 0.0);
+    std::vector<int> nf(nc, 0);
+    for (FI f : mesh.faces()) {
+      area[fcc[f]] += PMP::face_area(f, mesh);
+      ++nf[fcc[f]];
+    }
+    const std::size_t best = size_t(std::max_element(area.begin(), area.end()) - area.begin());
+    const double total = std::accumulate(area.begin(), area.end(), 0.0);
+    const double rest = total - area[best];
+    if (total > 0 && rest <= opt.max_set_aside_area * total) {
+      int set_aside_vertices = 0;
+      for (VI v : mesh.vertices()) {
+        bool kept = false;
+        if (mesh.is_isolated(v)) continue;
+        for (FI f : CGAL::faces_around_target(mesh.halfedge(v), mesh))
+          if (f != Mesh::null_face() && fcc[f] == best) kept = true;
+        set_aside_vertices += !kept;
+      }
+      const int faces_aside = int(mesh.number_of_faces()) - nf[best];
+      PMP::keep_connected_components(mesh, std::vector<std::size_t>{best}, fcc);
+      mesh.collect_garbage();
+      char pct[32];
+      std::snprintf(pct, sizeof pct, "%.2g%%", 100 * rest / total);
+      notes.push_back(note + count(long(nc - 1), "smaller component", "smaller components") + " set aside (" +
+                      count(faces_aside, "face", "faces") + ", " + pct + " of the area); their " +
+                      count(set_aside_vertices, "vertex maps", "vertices map") +
+                      " through the nearest point of the kept surface");
+    }
+  }
+  mesh.remove_property_map(fcc);
+}
+
+// 6. Small holes filled (triangulated and refined to the surrounding edge lengths).
+void fill_small_holes(Mesh& mesh, const SurfaceRepairOptions& opt, const std::string& note,
+                      std::vector<std::string>& notes) {
+  std::vector<Mesh::Halfedge_index> cycles;
+  PMP::extract_boundary_cycles(mesh, std::back_inserter(cycles));
+  const double area = PMP::area(mesh);
+  int filled = 0, edges = 0, added_faces = 0, added_vertices = 0;
+  for (Mesh::Halfedge_index h : cycles) {
+    double length = 0;
+    int k = 0;
+    for (Mesh::Halfedge_index e : CGAL::halfedges_around_face(h, mesh)) {
+      length += std::sqrt(CGAL::squared_distance(mesh.point(mesh.source(e)), mesh.point(mesh.target(e))));
+      ++k;
+    }
+    if (!(length * length / (4 * M_PI) <= opt.max_hole_area * area)) continue;
+    std::vector<FI> new_faces;
+    std::vector<VI> new_vertices;
+    try {
+      PMP::triangulate_and_refine_hole(mesh, h, std::back_inserter(new_faces), std::back_inserter(new_vertices));
+    } catch (const std::exception&) {
+      continue;  // left open: the guard reports the hole
+    }
+    if (new_faces.empty()) continue;
+    ++filled;
+    edges += k;
+    added_faces += int(new_faces.size());
+    added_vertices += int(new_vertices.size());
+  }
+  if (filled)
+    notes.push_back(note + count(filled, "small hole", "small holes") + " filled (" +
+                    count(edges, "boundary edge", "boundary edges") + "; " + count(added_faces, "face", "faces") +
+                    " and " + count(added_vertices, "vertex", "vertices") + " added)");
+}
+
+// The repaired surface and its correspondence to the input in: each input vertex to its
+// first copy, its duplicate's (rep), or the nearest point of the repaired surface.
+SurfaceRepair repair_result(const Mesh& mesh, const Mesh::Property_map<VI, int>& vfrom,
+                            const Mesh::Property_map<FI, int>& ffrom, const TriMesh& in,
+                            const std::vector<int>& rep, std::vector<std::string> notes) {
+  const int n = int(in.V.rows());
+  SurfaceRepair R;
+  R.notes = std::move(notes);
+  const int nv = int(mesh.number_of_vertices()), nf = int(mesh.number_of_faces());
+  R.mesh.V.resize(nv, 3);
+  R.vertex_from.resize(nv);
+  for (VI v : mesh.vertices()) {
+    const Point& p = mesh.point(v);
+    R.mesh.V.row(int(v)) << p.x(), p.y(), p.z();
+    R.vertex_from(int(v)) = vfrom[v];
+  }
+  R.mesh.F.resize(nf, 3);
+  R.face_from.resize(nf);
+  for (FI f : mesh.faces()) {
+    int j = 0;
+    for (VI v : CGAL::vertices_around_face(mesh.halfedge(f), mesh)) R.mesh.F(int(f), j++) = int(v);
+    // A face that CGAL rebuilt (an edge flip) no longer has its input face's corners.
+    int g = ffrom[f];
+    for (int c = 0; c < 3 && g >= 0; ++c) {
+      bool found = false;
+      for (int k = 0; k < 3; ++k) found |= R.mesh.V.row(R.mesh.F(int(f), c)) == in.V.row(in.F(g, k));
+      if (!found) g = -1;
+    }
+    R.face_from(int(f)) = g;
+  }
+  orient_outward(R.mesh);
+
+  // Each input vertex: its first copy, its duplicate's, or the nearest point.
+  R.input_vertex = Eigen::VectorXi::Constant(n, -1);
+  for (int v = 0; v < nv; ++v)
+    if (R.vertex_from(v) >= 0 && R.input_vertex(R.vertex_from(v)) < 0) R.input_vertex(R.vertex_from(v)) = v;
+  for (int i = 0; i < n; ++i) R.input_vertex(i) = R.input_vertex(rep[size_t(i)]);
+  std::vector<int> a_face(size_t(nv), -1), a_corner(size_t(nv), 0);
+  for (int f = nf - 1; f >= 0; --f)
+    for (int c = 0; c < 3; ++c) a_face[size_t(R.mesh.F(f, c))] = f, a_corner[size_t(R.mesh.F(f, c))] = c;
+  R.input_on_repaired.elem.resize(n);
+  R.input_on_repaired.bary = Eigen::MatrixXd::Zero(n, 3);
+  std::vector<int> lost;
+  for (int i = 0; i < n; ++i) {
+    const int v = R.input_vertex(i);
+    if (v >= 0 && a_face[size_t(v)] >= 0) {
+      R.input_on_repaired.elem(i) = a_face[size_t(v)];
+      R.input_on_repaired.bary(i, a_corner[size_t(v)]) = 1.0;
+    } else {
+      R.input_vertex(i) = -1;
+      lost.push_back(i);
+    }
+  }
+  if (!lost.empty()) {
+    ClosestPoint3 bvh(R.mesh.V, R.mesh.F);
+    for (int i : lost) {
+      const ClosestPointResult c = bvh.query(Eigen::Vector3d(in.V.row(i).transpose()));
+      R.input_on_repaired.elem(i) = c.elem;
+      Eigen::RowVector3d b = c.bary.head<3>().transpose().cwiseMax(0.0);
+      R.input_on_repaired.bary.row(i) = b.sum() > 0 ? Eigen::RowVector3d(b / b.sum()) : Eigen::RowVector3d(1, 0, 0);
+    }
+  }
+  return R;
+}
+
 }  // namespace
 
 SurfaceRepair repair_surface(const TriMesh& in, const std::string& name, const SurfaceRepairOptions& opt) {
@@ -90,33 +278,7 @@ SurfaceRepair repair_surface(const TriMesh& in, const std::string& name, const S
   std::vector<std::array<int, 3>> faces;
   std::vector<int> face_from;
   int repeated_vertex = 0, repeated_face = 0;
-  {
-    std::vector<std::pair<std::array<int, 3>, int>> keys;
-    for (int f = 0; f < m; ++f) {
-      const std::array<int, 3> t = {rep[size_t(in.F(f, 0))], rep[size_t(in.F(f, 1))], rep[size_t(in.F(f, 2))]};
-      if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) {
-        ++repeated_vertex;
-        continue;
-      }
-      std::array<int, 3> k = t;
-      std::sort(k.begin(), k.end());
-      keys.push_back({k, f});
-    }
-    std::sort(keys.begin(), keys.end());
-    std::vector<char> keep(size_t(m), 0);
-    for (size_t k = 0; k < keys.size(); ++k) {
-      if (k > 0 && keys[k].first == keys[k - 1].first) {
-        ++repeated_face;
-        continue;
-      }
-      keep[size_t(keys[k].second)] = 1;
-    }
-    for (int f = 0; f < m; ++f)
-      if (keep[size_t(f)]) {
-        faces.push_back({rep[size_t(in.F(f, 0))], rep[size_t(in.F(f, 1))], rep[size_t(in.F(f, 2))]});
-        face_from.push_back(f);
-      }
-  }
+  nondegenerate_faces(in, rep, faces, face_from, repeated_vertex, repeated_face);
 
   if (repeated_vertex + repeated_face > 0) {
     std::string what = repeated_vertex ? std::to_string(repeated_vertex) + " with a repeated vertex" : "";
@@ -190,26 +352,10 @@ SurfaceRepair repair_surface(const TriMesh& in, const std::string& name, const S
                     count(nm_vertices, "non-manifold vertex", "non-manifold vertices") + " split (" +
                     count(std::max(copies, 0L), "vertex", "vertices") + " duplicated; copies map like their original)");
 
-  // 4. Zero-area faces removed (CGAL's exact test; edges collapsed or flipped). On a copy:
-  // if CGAL gives up, the surface is kept as it was and the guards note the faces.
-  int zero_area = 0;
-  for (FI f : mesh.faces()) zero_area += PMP::is_degenerate_triangle_face(f, mesh);
+  const int zero_area = remove_zero_area_faces(mesh);
   if (zero_area > 0) {
-    Mesh trial = mesh;
-    bool ok = false;
-    try {
-      ok = PMP::remove_degenerate_faces(trial);
-    } catch (const std::exception&) {
-      ok = false;
-    }
-    if (ok) {
-      trial.collect_garbage();
-      mesh = std::move(trial);
-      vfrom = mesh.property_map<VI, int>("v:shapemap_from").first;
-      ffrom = mesh.property_map<FI, int>("f:shapemap_from").first;
-    } else {
-      zero_area = 0;
-    }
+    vfrom = mesh.property_map<VI, int>("v:shapemap_from").first;
+    ffrom = mesh.property_map<FI, int>("f:shapemap_from").first;
   }
   if (zero_area > 0)
     notes.push_back(note + count(zero_area, "degenerate face", "degenerate faces") +
@@ -218,138 +364,15 @@ SurfaceRepair repair_surface(const TriMesh& in, const std::string& name, const S
     notes.push_back(note + count(unreferenced, "vertex", "vertices") +
                     " used by no face set aside (mapped through the nearest point of the surface)");
 
-  // 5. Components other than the largest (by area) set aside, when together they are small.
-  {
-    auto fcc = mesh.add_property_map<FI, std::size_t>("f:shapemap_cc", 0).first;
-    const std::size_t nc = PMP::connected_components(mesh, fcc);
-    if (nc > 1) {
-      std::vector<double> area(nc, 0.0);
-      std::vector<int> nf(nc, 0);
-      for (FI f : mesh.faces()) {
-        area[fcc[f]] += PMP::face_area(f, mesh);
-        ++nf[fcc[f]];
-      }
-      const std::size_t best = size_t(std::max_element(area.begin(), area.end()) - area.begin());
-      const double total = std::accumulate(area.begin(), area.end(), 0.0);
-      const double rest = total - area[best];
-      if (total > 0 && rest <= opt.max_set_aside_area * total) {
-        int set_aside_vertices = 0;
-        for (VI v : mesh.vertices()) {
-          bool kept = false;
-          if (mesh.is_isolated(v)) continue;
-          for (FI f : CGAL::faces_around_target(mesh.halfedge(v), mesh))
-            if (f != Mesh::null_face() && fcc[f] == best) kept = true;
-          set_aside_vertices += !kept;
-        }
-        const int faces_aside = int(mesh.number_of_faces()) - nf[best];
-        PMP::keep_connected_components(mesh, std::vector<std::size_t>{best}, fcc);
-        mesh.collect_garbage();
-        char pct[32];
-        std::snprintf(pct, sizeof pct, "%.2g%%", 100 * rest / total);
-        notes.push_back(note + count(long(nc - 1), "smaller component", "smaller components") + " set aside (" +
-                        count(faces_aside, "face", "faces") + ", " + pct + " of the area); their " +
-                        count(set_aside_vertices, "vertex maps", "vertices map") +
-                        " through the nearest point of the kept surface");
-      }
-    }
-    mesh.remove_property_map(fcc);
-  }
+  set_aside_small_components(mesh, opt, note, notes);
 
-  // 6. Small holes filled (triangulated and refined to the surrounding edge lengths).
-  {
-    std::vector<Mesh::Halfedge_index> cycles;
-    PMP::extract_boundary_cycles(mesh, std::back_inserter(cycles));
-    const double area = PMP::area(mesh);
-    int filled = 0, edges = 0, added_faces = 0, added_vertices = 0;
-    for (Mesh::Halfedge_index h : cycles) {
-      double length = 0;
-      int k = 0;
-      for (Mesh::Halfedge_index e : CGAL::halfedges_around_face(h, mesh)) {
-        length += std::sqrt(CGAL::squared_distance(mesh.point(mesh.source(e)), mesh.point(mesh.target(e))));
-        ++k;
-      }
-      if (!(length * length / (4 * M_PI) <= opt.max_hole_area * area)) continue;
-      std::vector<FI> new_faces;
-      std::vector<VI> new_vertices;
-      try {
-        PMP::triangulate_and_refine_hole(mesh, h, std::back_inserter(new_faces), std::back_inserter(new_vertices));
-      } catch (const std::exception&) {
-        continue;  // left open: the guard reports the hole
-      }
-      if (new_faces.empty()) continue;
-      ++filled;
-      edges += k;
-      added_faces += int(new_faces.size());
-      added_vertices += int(new_vertices.size());
-    }
-    if (filled)
-      notes.push_back(note + count(filled, "small hole", "small holes") + " filled (" +
-                      count(edges, "boundary edge", "boundary edges") + "; " + count(added_faces, "face", "faces") +
-                      " and " + count(added_vertices, "vertex", "vertices") + " added)");
-  }
+  fill_small_holes(mesh, opt, note, notes);
   if (notes.empty()) return identity_repair(in);  // nothing changed after all
   for (VI v : mesh.vertices())
     if (mesh.is_isolated(v)) mesh.remove_vertex(v);  // left by CGAL's collapses: mapped by nearest point
   mesh.collect_garbage();
 
-  // The repaired surface and its correspondence to the input.
-  SurfaceRepair R;
-  R.notes = std::move(notes);
-  const int nv = int(mesh.number_of_vertices()), nf = int(mesh.number_of_faces());
-  R.mesh.V.resize(nv, 3);
-  R.vertex_from.resize(nv);
-  for (VI v : mesh.vertices()) {
-    const Point& p = mesh.point(v);
-    R.mesh.V.row(int(v)) << p.x(), p.y(), p.z();
-    R.vertex_from(int(v)) = vfrom[v];
-  }
-  R.mesh.F.resize(nf, 3);
-  R.face_from.resize(nf);
-  for (FI f : mesh.faces()) {
-    int j = 0;
-    for (VI v : CGAL::vertices_around_face(mesh.halfedge(f), mesh)) R.mesh.F(int(f), j++) = int(v);
-    // A face that CGAL rebuilt (an edge flip) no longer has its input face's corners.
-    int g = ffrom[f];
-    for (int c = 0; c < 3 && g >= 0; ++c) {
-      bool found = false;
-      for (int k = 0; k < 3; ++k) found |= R.mesh.V.row(R.mesh.F(int(f), c)) == in.V.row(in.F(g, k));
-      if (!found) g = -1;
-    }
-    R.face_from(int(f)) = g;
-  }
-  orient_outward(R.mesh);
-
-  // Each input vertex: its first copy, its duplicate's, or the nearest point.
-  R.input_vertex = Eigen::VectorXi::Constant(n, -1);
-  for (int v = 0; v < nv; ++v)
-    if (R.vertex_from(v) >= 0 && R.input_vertex(R.vertex_from(v)) < 0) R.input_vertex(R.vertex_from(v)) = v;
-  for (int i = 0; i < n; ++i) R.input_vertex(i) = R.input_vertex(rep[size_t(i)]);
-  std::vector<int> a_face(size_t(nv), -1), a_corner(size_t(nv), 0);
-  for (int f = nf - 1; f >= 0; --f)
-    for (int c = 0; c < 3; ++c) a_face[size_t(R.mesh.F(f, c))] = f, a_corner[size_t(R.mesh.F(f, c))] = c;
-  R.input_on_repaired.elem.resize(n);
-  R.input_on_repaired.bary = Eigen::MatrixXd::Zero(n, 3);
-  std::vector<int> lost;
-  for (int i = 0; i < n; ++i) {
-    const int v = R.input_vertex(i);
-    if (v >= 0 && a_face[size_t(v)] >= 0) {
-      R.input_on_repaired.elem(i) = a_face[size_t(v)];
-      R.input_on_repaired.bary(i, a_corner[size_t(v)]) = 1.0;
-    } else {
-      R.input_vertex(i) = -1;
-      lost.push_back(i);
-    }
-  }
-  if (!lost.empty()) {
-    ClosestPoint3 bvh(R.mesh.V, R.mesh.F);
-    for (int i : lost) {
-      const ClosestPointResult c = bvh.query(Eigen::Vector3d(in.V.row(i).transpose()));
-      R.input_on_repaired.elem(i) = c.elem;
-      Eigen::RowVector3d b = c.bary.head<3>().transpose().cwiseMax(0.0);
-      R.input_on_repaired.bary.row(i) = b.sum() > 0 ? Eigen::RowVector3d(b / b.sum()) : Eigen::RowVector3d(1, 0, 0);
-    }
-  }
-  return R;
+  return repair_result(mesh, vfrom, ffrom, in, rep, std::move(notes));
 }
 
 }  // namespace shapemap

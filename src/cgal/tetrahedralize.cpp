@@ -2,6 +2,7 @@
 // polyhedral surface remesher used by the generated pairs. One of the two translation
 // units of shapemap that include CGAL (the other: implicit_mesher.cpp).
 #include "shapemap/volume/tetrahedralize.h"
+#include "shapemap/geometry/tet_volume.h"
 #include "internal.h"
 #include "shapemap/checks.h"
 #include "shapemap/error.h"
@@ -154,17 +155,74 @@ class CerrSilencer {
   std::streambuf* old_;
 };
 
-TetMesh mesh_once(const TriMesh& surface_in, const TetrahedralizeOptions& opt,
-                  const ProgressCallback& progress, TetrahedralizeInfo* info) {
-  if (info) *info = TetrahedralizeInfo{};
-  const std::string name = "surface";
-  cgal_internal::require_closed_manifold(surface_in, name);
+void require_valid_options(const TetrahedralizeOptions& opt) {
   if (opt.edge_length < 0) throw InputError("tetrahedralize: edge length must be positive");
   if (opt.target_tets < 0) throw InputError("tetrahedralize: target tet count must be positive");
   if (opt.target_tets > kMaxTetrahedralizeTets)
     throw InputError("tetrahedralize: target tet count " + std::to_string(opt.target_tets) + " is more than " +
                      std::to_string(kMaxTetrahedralizeTets));
   if (!(opt.radius_edge_ratio >= 2)) throw InputError("tetrahedralize: radius-edge ratio must be >= 2");
+}
+
+// Target edge length L (opt.edge_length, or from opt.target_tets: a regular tet of edge a has
+// volume a^3 / (6 sqrt 2); Delaunay refinement stops below the size bound, so the mean tet is
+// smaller than the bound by a factor kTetFill, calibrated on spheres and spot.obj) for a
+// surface enclosing vol with bounding-box diagonal diag; expected_tets: the tets it gives.
+double tet_edge_length(const TetrahedralizeOptions& opt, double vol, double diag, double& expected_tets) {
+  constexpr double kTetFill = 2.65;
+  double L = opt.edge_length;
+  if (L <= 0) {
+    int n = opt.target_tets > 0 ? opt.target_tets : 30000;
+    L = std::cbrt(6 * std::sqrt(2.0) * vol * kTetFill / n);
+  }
+  if (!(L > 1e-6 * diag)) throw InputError("tetrahedralize: edge length too small for the input size");
+  expected_tets = 6 * std::sqrt(2.0) * vol * kTetFill / (L * L * L);
+  if (expected_tets > kMaxTetrahedralizeTets) {
+    std::ostringstream m;
+    m << "tetrahedralize: edge length " << L << " gives about " << std::setprecision(2) << expected_tets
+      << " tets, more than " << kMaxTetrahedralizeTets;
+    throw InputError(m.str());
+  }
+  return L;
+}
+
+// The cells of the complex on compacted vertices, positively oriented.
+TetMesh extract_tets(const C3t3& c3t3, const std::string& name) {
+  std::unordered_map<Vertex_handle, int> index;
+  std::vector<Eigen::Vector3d> pts;
+  std::vector<std::array<int, 4>> tets;
+  tets.reserve(c3t3.number_of_cells_in_complex());
+  for (auto c = c3t3.cells_in_complex_begin(); c != c3t3.cells_in_complex_end(); ++c) {
+    std::array<int, 4> t;
+    for (int j = 0; j < 4; ++j) {
+      Vertex_handle v = c->vertex(j);
+      auto [it, inserted] = index.emplace(v, int(pts.size()));
+      if (inserted) pts.push_back(to_eigen(v->point().point()));
+      t[j] = it->second;
+    }
+    tets.push_back(t);
+  }
+  if (tets.empty())
+    throw InputError(name + ": no tetrahedra at this size (too few tets asked for this surface; ask for more)");
+  TetMesh out;
+  out.V.resize(pts.size(), 3);
+  for (size_t i = 0; i < pts.size(); ++i) out.V.row(i) = pts[i].transpose();
+  out.T.resize(tets.size(), 4);
+  for (size_t t = 0; t < tets.size(); ++t) {
+    auto& q = tets[t];
+    Eigen::Vector3d a = pts[q[0]], b = pts[q[1]], c = pts[q[2]], d = pts[q[3]];
+    if (signed_tet_volume6(a, b, c, d) < 0) std::swap(q[2], q[3]);
+    out.T.row(t) << q[0], q[1], q[2], q[3];
+  }
+  return out;
+}
+
+TetMesh mesh_once(const TriMesh& surface_in, const TetrahedralizeOptions& opt,
+                  const ProgressCallback& progress, TetrahedralizeInfo* info) {
+  if (info) *info = TetrahedralizeInfo{};
+  const std::string name = "surface";
+  cgal_internal::require_closed_manifold(surface_in, name);
+  require_valid_options(opt);
   TriMesh surface = surface_in;
   double vol = enclosed_volume(surface.V, surface.F);
   if (vol < 0) {
@@ -175,23 +233,8 @@ TetMesh mesh_once(const TriMesh& surface_in, const TetrahedralizeOptions& opt,
   if (!(vol > 1e-12 * diag * diag * diag)) throw InputError(name + ": encloses no volume");
   const double area = surface_area(surface.V, surface.F);
 
-  // Size. A regular tet of edge a has volume a^3 / (6 sqrt 2); Delaunay refinement
-  // stops below the size bound, so the mean tet is smaller than the bound by a factor
-  // kTetFill, calibrated on spheres and spot.obj (tets per regular-tet volume).
-  constexpr double kTetFill = 2.65;
-  double L = opt.edge_length;
-  if (L <= 0) {
-    int n = opt.target_tets > 0 ? opt.target_tets : 30000;
-    L = std::cbrt(6 * std::sqrt(2.0) * vol * kTetFill / n);
-  }
-  if (!(L > 1e-6 * diag)) throw InputError("tetrahedralize: edge length too small for the input size");
-  const double expected_tets = 6 * std::sqrt(2.0) * vol * kTetFill / (L * L * L);
-  if (expected_tets > kMaxTetrahedralizeTets) {
-    std::ostringstream m;
-    m << "tetrahedralize: edge length " << L << " gives about " << std::setprecision(2) << expected_tets
-      << " tets, more than " << kMaxTetrahedralizeTets;
-    throw InputError(m.str());
-  }
+  double expected_tets = 0;
+  const double L = tet_edge_length(opt, vol, diag, expected_tets);
 
   report(progress, "tetrahedralize/setup", 0);
   // Mesh_3 writes warnings and "refinement can't start" banners to std::cerr; the
@@ -287,33 +330,7 @@ TetMesh mesh_once(const TriMesh& surface_in, const TetrahedralizeOptions& opt,
   }
   report(progress, "tetrahedralize/refine", 1);
 
-  // Extract the cells of the complex on compacted vertices, positively oriented.
-  std::unordered_map<Vertex_handle, int> index;
-  std::vector<Eigen::Vector3d> pts;
-  std::vector<std::array<int, 4>> tets;
-  tets.reserve(c3t3.number_of_cells_in_complex());
-  for (auto c = c3t3.cells_in_complex_begin(); c != c3t3.cells_in_complex_end(); ++c) {
-    std::array<int, 4> t;
-    for (int j = 0; j < 4; ++j) {
-      Vertex_handle v = c->vertex(j);
-      auto [it, inserted] = index.emplace(v, int(pts.size()));
-      if (inserted) pts.push_back(to_eigen(v->point().point()));
-      t[j] = it->second;
-    }
-    tets.push_back(t);
-  }
-  if (tets.empty())
-    throw InputError(name + ": no tetrahedra at this size (too few tets asked for this surface; ask for more)");
-  TetMesh out;
-  out.V.resize(pts.size(), 3);
-  for (size_t i = 0; i < pts.size(); ++i) out.V.row(i) = pts[i].transpose();
-  out.T.resize(tets.size(), 4);
-  for (size_t t = 0; t < tets.size(); ++t) {
-    auto& q = tets[t];
-    Eigen::Vector3d a = pts[q[0]], b = pts[q[1]], c = pts[q[2]], d = pts[q[3]];
-    if ((b - a).dot((c - a).cross(d - a)) < 0) std::swap(q[2], q[3]);
-    out.T.row(t) << q[0], q[1], q[2], q[3];
-  }
+  TetMesh out = extract_tets(c3t3, name);
   report(progress, "tetrahedralize/extract", 1);
   return out;
 }

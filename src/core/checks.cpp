@@ -1,5 +1,6 @@
 // Validity reports of surfaces and tet meshes, and the input guards of the methods.
 #include "shapemap/checks.h"
+#include "shapemap/geometry/tet_volume.h"
 #include "shapemap/adjacency.h"
 #include "shapemap/error.h"
 #include <Eigen/Geometry>
@@ -296,7 +297,7 @@ MeshReport check_volume(const TetMesh& mesh) {
     double vol6 = 0;
     if (!repeated && R.finite) {
       Eigen::Vector3d a = V.row(T(t, 0)), b = V.row(T(t, 1)), c = V.row(T(t, 2)), d = V.row(T(t, 3));
-      vol6 = (b - a).dot((c - a).cross(d - a));
+      vol6 = signed_tet_volume6(a, b, c, d);
       double l = std::sqrt(std::max({(b - a).squaredNorm(), (c - a).squaredNorm(), (d - a).squaredNorm(),
                                      (c - b).squaredNorm(), (d - b).squaredNorm(), (d - c).squaredNorm()}));
       degenerate = std::abs(vol6) <= kDegenerateEps * l * l * l;

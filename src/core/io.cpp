@@ -1,6 +1,7 @@
 // Format dispatch, atomic writes, landmark files, and the shared parsing helpers.
 // The readers themselves are in io_surface.cpp and io_volume.cpp.
 #include "shapemap/io.h"
+#include "shapemap/geometry/tet_volume.h"
 #include "io_detail.h"
 #include <Eigen/Geometry>
 #include <unistd.h>
@@ -111,7 +112,7 @@ void orient_tets_positive(TetMesh& mesh) {
   for (Eigen::Index t = 0; t < mesh.T.rows(); ++t) {
     Eigen::Vector3d a = mesh.V.row(mesh.T(t, 0)), b = mesh.V.row(mesh.T(t, 1)), c = mesh.V.row(mesh.T(t, 2)),
                     d = mesh.V.row(mesh.T(t, 3));
-    double v = (b - a).dot((c - a).cross(d - a));
+    const double v = signed_tet_volume6(a, b, c, d);
     neg += v < 0;
     pos += v > 0;
   }

@@ -310,15 +310,14 @@ long long ply_index(Parser& P, PlyFormat fmt, PlyType t, std::string_view what) 
 
 }  // namespace
 
-TriMesh read_ply(const std::string& path) {
-  std::string data = read_file_bytes(path);
-  Parser P(path, data);
-  // ---- header
+namespace {
+
+// The PLY header up to end_header: the data format and the elements with their properties.
+PlyFormat read_ply_header(Parser& P, std::vector<PlyElement>& elems) {
   std::string_view magic = P.rest_of_line();
   if (magic != "ply") P.fail_at(1, "not a PLY file (first line " + quote(magic) + ", expected 'ply')");
   PlyFormat fmt = PlyFormat::Ascii;
   bool have_format = false;
-  std::vector<PlyElement> elems;
   for (;;) {
     if (P.eof()) P.fail("header has no end_header line");
     std::string_view kw = P.line_token();
@@ -367,6 +366,16 @@ TriMesh read_ply(const std::string& path) {
     P.skip_line();
   }
   if (!have_format) P.fail("header has no format line");
+  return fmt;
+}
+
+}  // namespace
+
+TriMesh read_ply(const std::string& path) {
+  std::string data = read_file_bytes(path);
+  Parser P(path, data);
+  std::vector<PlyElement> elems;
+  const PlyFormat fmt = read_ply_header(P, elems);
 
   // ---- which properties we need
   const PlyElement* ve = nullptr;

@@ -1,5 +1,6 @@
 // Mesh measures, normalizations and the boundary surface of a tet mesh.
 #include "shapemap/mesh.h"
+#include "shapemap/geometry/tet_volume.h"
 #include "shapemap/error.h"
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -34,7 +35,7 @@ Eigen::VectorXd tet_volumes(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T) 
   for (Eigen::Index t = 0; t < T.rows(); ++t) {
     Eigen::Vector3d a = V.row(T(t, 0));
     Eigen::Vector3d b = V.row(T(t, 1)), c = V.row(T(t, 2)), d = V.row(T(t, 3));
-    vol(t) = (b - a).dot((c - a).cross(d - a)) / 6.0;
+    vol(t) = signed_tet_volume(a, b, c, d);
   }
   return vol;
 }
@@ -160,7 +161,7 @@ TetBoundary boundary_surface(const TetMesh& mesh) {
       {
         Eigen::Vector3d a = mesh.V.row(T(e.tet, 0)), b = mesh.V.row(T(e.tet, 1)),
                         c = mesh.V.row(T(e.tet, 2)), d = mesh.V.row(T(e.tet, 3));
-        positive = (b - a).dot((c - a).cross(d - a)) >= 0;
+        positive = signed_tet_volume6(a, b, c, d) >= 0;
       }
       std::array<int, 3> f = {T(e.tet, kFace[e.corner][0]), T(e.tet, kFace[e.corner][1]),
                               T(e.tet, kFace[e.corner][2])};

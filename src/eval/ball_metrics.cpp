@@ -1,5 +1,6 @@
 // Metrics of ball maps: D_V (Eq. 45), E_I (Eq. 2), foldings, boundary-on-sphere error.
 #include "shapemap/eval/ball_metrics.h"
+#include "shapemap/geometry/tet_volume.h"
 #include "shapemap/error.h"
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -57,7 +58,7 @@ void ball_coverage(const Eigen::MatrixXd& f, const Eigen::MatrixXi& T, int sampl
     int cnt = 0;
     for (int t : bins[(size_t(cell(p.x())) * G + cell(p.y())) * G + cell(p.z())]) {
       const Eigen::Vector3d a = f.row(T(t, 0)), b = f.row(T(t, 1)), c = f.row(T(t, 2)), d = f.row(T(t, 3));
-      const double v = (b - a).dot((c - a).cross(d - a));
+      const double v = signed_tet_volume6(a, b, c, d);
       if (v == 0) continue;
       // Barycentric coordinates as signed sub-volumes over the tet volume (any orientation).
       const double l0 = (b - p).dot((c - p).cross(d - p)) / v;

@@ -3,6 +3,7 @@
 
 #include "shapemap/error.h"
 #include "shapemap/geometry/curvature.h"
+#include "shapemap/geometry/mass.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -13,16 +14,6 @@
 namespace shapemap {
 
 namespace {
-
-Eigen::VectorXd lumped(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
-  Eigen::VectorXd m = Eigen::VectorXd::Zero(V.rows());
-  for (int f = 0; f < F.rows(); ++f) {
-    const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
-    const double A = 0.5 * (b - a).cross(c - a).norm();
-    for (int j = 0; j < 3; ++j) m(F(f, j)) += A / 3;
-  }
-  return m;
-}
 
 double median(Eigen::VectorXd v) {
   if (v.size() == 0) return 0;
@@ -160,7 +151,7 @@ double mean_curvature_error(const TriMesh& S, const TriMesh& T, const Barycentri
   }
   const Eigen::VectorXd H = mean_curvature(X, S.F);
   const Eigen::VectorXd Ht = mean_curvature(Xt, T.F);
-  const Eigen::VectorXd M = lumped(X, S.F);
+  const Eigen::VectorXd M = lumped_mass(X, S.F);
   double s = 0;
   for (int i = 0; i < P.size(); ++i) {
     const int f = P.elem(i);
@@ -180,7 +171,7 @@ double reversibility_error(const TriMesh& S, const TriMesh& T, const Barycentric
   if (normalize_area) X = unit_area_normalization(S).apply(S.V);
   const Eigen::MatrixXd QX = map_positions(Q, X, S.F);       // T vertices -> points on S
   const Eigen::MatrixXd PQX = map_positions(P, QX, T.F);     // S vertices -> back on S
-  const Eigen::VectorXd M = lumped(X, S.F);
+  const Eigen::VectorXd M = lumped_mass(X, S.F);
   double s = 0;
   for (int i = 0; i < X.rows(); ++i) s += M(i) * (PQX.row(i) - X.row(i)).squaredNorm();
   return std::sqrt(s);

@@ -1,5 +1,6 @@
 // Cotangent Laplacians of triangle and tetrahedral meshes (PSD convention, see header).
 #include "shapemap/geometry/laplacian.h"
+#include "shapemap/geometry/tet_volume.h"
 #include "shapemap/error.h"
 #include "shapemap/mesh.h"
 #include <Eigen/Geometry>
@@ -182,7 +183,7 @@ Eigen::MatrixXd tet_cotan_weights(const Eigen::MatrixXd& V, const Eigen::MatrixX
     c[1] = (x3 - x0).cross(x2 - x0);  // face (0,3,2)
     c[2] = (x1 - x0).cross(x3 - x0);  // face (0,1,3)
     c[3] = (x2 - x0).cross(x1 - x0);  // face (0,2,1)
-    const double vol6 = std::abs((x1 - x0).dot((x2 - x0).cross(x3 - x0)));
+    const double vol6 = std::abs(signed_tet_volume6(x0, x1, x2, x3));
     if (!(vol6 > 0)) {
       // Flat tet: the dihedral angles are 0 or pi and the weights are unbounded; a
       // degenerate element contributes nothing rather than inf/NaN.

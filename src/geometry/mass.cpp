@@ -1,5 +1,6 @@
 // Lumped and mixed-Voronoi mass matrices (diagonals).
 #include "shapemap/geometry/mass.h"
+#include "shapemap/geometry/tet_volume.h"
 #include "shapemap/error.h"
 #include "shapemap/mesh.h"
 #include <Eigen/Geometry>
@@ -75,7 +76,7 @@ Eigen::VectorXd tet_lumped_mass(const Eigen::MatrixXd& V, const Eigen::MatrixXi&
   for (Eigen::Index t = 0; t < m; ++t) {
     const Eigen::Vector3d a = V.row(T(t, 0)), b = V.row(T(t, 1)), c = V.row(T(t, 2)),
                           d = V.row(T(t, 3));
-    C.row(t).setConstant(std::abs((b - a).dot((c - a).cross(d - a))) / 24.0);
+    C.row(t).setConstant(std::abs(signed_tet_volume6(a, b, c, d)) / 24.0);
   }
   return scatter(T, C, V.rows());
 }

@@ -5,6 +5,7 @@
 #include "shapemap/optim/lbfgs.h"
 
 #include "shapemap/error.h"
+#include "shapemap/optim/lbfgs_memory.h"
 #include "shapemap/optim/line_search.h"
 
 #include <algorithm>
@@ -15,13 +16,10 @@ namespace shapemap {
 LbfgsResult lbfgs_minimize(const Objective& f, Eigen::VectorXd& x, const LbfgsOptions& opt) {
   if (opt.memory < 1) throw InputError("lbfgs_minimize: memory must be >= 1");
   const Eigen::Index n = x.size();
-  const int m = opt.memory;
   LbfgsResult res;
-  Eigen::MatrixXd S(n, m), Y(n, m);
-  Eigen::VectorXd rho(m), a(m);
+  LbfgsMemory H;
+  H.init(n, opt.memory);
   Eigen::VectorXd g(n), g_new(n), d(n), x_new(n);
-  int stored = 0, newest = -1;  // circular buffer of pairs
-  double gamma = 1;
 
   res.f = f(x, g);
   res.evaluations = 1;
@@ -34,29 +32,15 @@ LbfgsResult lbfgs_minimize(const Objective& f, Eigen::VectorXd& x, const LbfgsOp
 
   bool restarted = false;  // the last direction was steepest descent after a reset
   while (res.iterations < opt.max_iterations) {
-    // Two-loop recursion: d = -H g.
-    d = g;
-    for (int k = 0; k < stored; ++k) {
-      const int i = (newest - k + m) % m;
-      a(i) = rho(i) * S.col(i).dot(d);
-      d.noalias() -= a(i) * Y.col(i);
-    }
-    d *= gamma;
-    for (int k = stored - 1; k >= 0; --k) {
-      const int i = (newest - k + m) % m;
-      const double b = rho(i) * Y.col(i).dot(d);
-      d.noalias() += (a(i) - b) * S.col(i);
-    }
-    d = -d;
+    H.direction(g, d);
     double gd = g.dot(d);
     if (!(gd < 0)) {  // not a descent direction (rounding): reset to steepest descent
-      stored = 0;
-      gamma = 1;
+      H.reset();
       d = -g;
       gd = g.dot(d);
     }
     // First step (no curvature information): unit length in x.
-    const double alpha0 = stored == 0 ? std::min(1.0, 1.0 / std::sqrt(-gd)) : 1.0;
+    const double alpha0 = H.stored() == 0 ? std::min(1.0, 1.0 / std::sqrt(-gd)) : 1.0;
     LineSearchResult ls =
         opt.wolfe ? strong_wolfe_search(f, x, res.f, g, d, alpha0, opt.c1, opt.c2,
                                         opt.max_line_search, x_new, g_new)
@@ -64,9 +48,8 @@ LbfgsResult lbfgs_minimize(const Objective& f, Eigen::VectorXd& x, const LbfgsOp
                                   x_new, g_new);
     res.evaluations += ls.evaluations;
     if (!ls.ok) {
-      if (stored > 0 && !restarted) {  // retry once from steepest descent
-        stored = 0;
-        gamma = 1;
+      if (H.stored() > 0 && !restarted) {  // retry once from steepest descent
+        H.reset();
         restarted = true;
         continue;
       }
@@ -80,20 +63,7 @@ LbfgsResult lbfgs_minimize(const Objective& f, Eigen::VectorXd& x, const LbfgsOp
       break;
     }
     restarted = false;
-    // Curvature pair; skipped when s'y <= 1e-10 |s| |y| (no positive curvature).
-    const int slot = (newest + 1) % m;
-    S.col(slot) = x_new - x;
-    Y.col(slot) = g_new - g;
-    const double sy = S.col(slot).dot(Y.col(slot));
-    const double yy = Y.col(slot).squaredNorm();
-    if (sy > 1e-10 * std::sqrt(S.col(slot).squaredNorm() * yy) && sy > 0) {
-      newest = slot;
-      rho(slot) = 1.0 / sy;
-      gamma = sy / yy;
-      stored = std::min(stored + 1, m);
-    } else if (stored == m) {
-      --stored;  // the slot held the oldest pair, now overwritten: drop it
-    }
+    H.add_pair(x, x_new, g, g_new);
     const double f_old = res.f;
     x.swap(x_new);
     g.swap(g_new);

@@ -1,5 +1,6 @@
 // Projected Newton with backtracking (newton.h).
 #include "shapemap/optim/newton.h"
+#include "shapemap/timing.h"
 #include "shapemap/error.h"
 #include <chrono>
 #include <cmath>
@@ -7,8 +8,6 @@
 namespace shapemap {
 
 namespace {
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 // Mean of the diagonal of a lower-triangle CSC matrix (its scale, for the shift).
 double mean_diagonal(const Eigen::SparseMatrix<double>& H) {
   double s = 0;
@@ -32,7 +31,7 @@ NewtonResult ProjectedNewton::minimize(const NewtonValue& f, const NewtonHessian
   g_new_.resize(N);
   auto t = Clock::now();
   double fx = f(x, &g_);
-  res.seconds_value += since(t);
+  res.seconds_value += seconds_since(t);
   ++res.evaluations;
   res.f = fx;
   res.grad_norm = g_.norm();
@@ -49,7 +48,7 @@ NewtonResult ProjectedNewton::minimize(const NewtonValue& f, const NewtonHessian
     t = Clock::now();
     H_.set_zero();
     hess(x, H_);
-    res.seconds_hessian += since(t);
+    res.seconds_hessian += seconds_since(t);
     t = Clock::now();
     double shift = 0;
     for (int attempt = 0;; ++attempt) {
@@ -64,10 +63,10 @@ NewtonResult ProjectedNewton::minimize(const NewtonValue& f, const NewtonHessian
         shift += add;
       }
     }
-    res.seconds_factor += since(t);
+    res.seconds_factor += seconds_since(t);
     t = Clock::now();
     d_ = -chol_.solve(g_);
-    res.seconds_solve += since(t);
+    res.seconds_solve += seconds_since(t);
     double slope = g_.dot(d_);
     if (!(slope < 0) || !d_.allFinite()) {  // not a descent direction (rounding): steepest descent
       d_ = -g_;
@@ -92,7 +91,7 @@ NewtonResult ProjectedNewton::minimize(const NewtonValue& f, const NewtonHessian
       }
       step *= 0.5;
     }
-    res.seconds_value += since(t);
+    res.seconds_value += seconds_since(t);
     ++res.iterations;
     if (!accepted) {
       // No decrease along d: x is where rounding ends the descent. Keep it.

@@ -1,6 +1,8 @@
 // Blended Intrinsic Maps (Kim, Lipman, Funkhouser 2011). See bim.h for the pipeline and
 // docs/methods.md ("Blended Intrinsic Maps") for every deviation from the paper.
 #include "shapemap/surface/bim.h"
+#include "shapemap/splitmix.h"
+#include "shapemap/timing.h"
 #include "shapemap/adjacency.h"
 #include "shapemap/checks.h"
 #include "shapemap/error.h"
@@ -21,18 +23,6 @@
 namespace shapemap {
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
-
-std::uint64_t splitmix64(std::uint64_t& x) {
-  std::uint64_t z = (x += 0x9e3779b97f4a7c15ULL);
-  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-  return z ^ (z >> 31);
-}
 
 // Vertices within geodesic radius r of s along mesh edges (Dijkstra), with distances.
 void dijkstra_ball(const std::vector<std::vector<std::pair<int, double>>>& adj, int s, double r,
@@ -91,6 +81,80 @@ std::vector<int> agd_maxima(const TriMesh& mesh, const Eigen::VectorXd& agd, dou
   return out;
 }
 
+// Interpolation weights from the k samples P_even to all n vertices (Sec. 5): Gaussian in
+// the geodesic distance dist (n×k) with width rho, cut at 3 rho, rows normalized; a vertex
+// with no sample within 3 rho takes its nearest sample.
+Eigen::SparseMatrix<double, Eigen::RowMajor> gaussian_interpolation(const Eigen::MatrixXd& dist, double rho) {
+  const int n = int(dist.rows()), k = int(dist.cols());
+  std::vector<std::vector<std::pair<int, double>>> rows(n);
+#pragma omp parallel for schedule(static)
+  for (int v = 0; v < n; ++v) {
+    double sum = 0;
+    int nearest = 0;
+    for (int j = 0; j < k; ++j) {
+      double d = dist(v, j);
+      if (d < dist(v, nearest)) nearest = j;
+      if (d < 3 * rho) {
+        double w = std::exp(-d * d / (2 * rho * rho));
+        rows[v].push_back({j, w});
+        sum += w;
+      }
+    }
+    if (rows[v].empty() || !(sum > 0)) {
+      rows[v].assign(1, {nearest, 1.0});
+      sum = 1;
+    }
+    for (auto& e : rows[v]) e.second /= sum;
+  }
+  std::vector<Eigen::Triplet<double>> trip;
+  for (int v = 0; v < n; ++v)
+    for (auto& e : rows[v]) trip.emplace_back(v, e.first, e.second);
+  Eigen::SparseMatrix<double, Eigen::RowMajor> W(n, k);
+  W.setFromTriplets(trip.begin(), trip.end());
+  return W;
+}
+
+// Greedy nearest-neighbour tour over the samples `even` (vertex ids) from sample 0, by the
+// geodesic distances dist (n×k).
+std::vector<int> nearest_neighbour_tour(const std::vector<int>& even, const Eigen::MatrixXd& dist) {
+  const int k = int(dist.cols());
+  std::vector<char> used(k, 0);
+  std::vector<int> chain;
+  int cur = 0;
+  for (int it = 0; it < k; ++it) {
+    chain.push_back(cur);
+    used[cur] = 1;
+    int best = -1;
+    for (int j = 0; j < k; ++j)
+      if (!used[j] && (best < 0 || dist(even[j], cur) < dist(even[best], cur))) best = j;
+    if (best < 0) break;
+    cur = best;
+  }
+  return chain;
+}
+
+// Breadth-first order of the n vertices of F (every component, roots in index order) and
+// each vertex's BFS parent (-1 at a root).
+void breadth_first_order(const Eigen::MatrixXi& F, int n, std::vector<int>& order, std::vector<int>& parent) {
+  auto nb = vertex_neighbors(F, n);
+  order.clear();
+  parent.assign(n, -2);
+  for (int root = 0; root < n; ++root) {
+    if (parent[root] != -2) continue;
+    parent[root] = -1;
+    size_t head = order.size();
+    order.push_back(root);
+    while (head < order.size()) {
+      int v = order[head++];
+      for (int u : nb[v])
+        if (parent[u] == -2) {
+          parent[u] = v;
+          order.push_back(u);
+        }
+    }
+  }
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------
@@ -141,48 +205,9 @@ BIMSurface bim_prepare(const TriMesh& input, const std::string& name, const BIMO
   }
   // Gaussian interpolation weights from P_even to all vertices (Sec. 5).
   const double rho = opt.interpolation_sigma > 0 ? opt.interpolation_sigma : 1.0 / std::sqrt(double(k));
-  {
-    std::vector<std::vector<std::pair<int, double>>> rows(n);
-#pragma omp parallel for schedule(static)
-    for (int v = 0; v < n; ++v) {
-      double sum = 0;
-      int nearest = 0;
-      for (int j = 0; j < k; ++j) {
-        double d = s.even_dist(v, j);
-        if (d < s.even_dist(v, nearest)) nearest = j;
-        if (d < 3 * rho) {
-          double w = std::exp(-d * d / (2 * rho * rho));
-          rows[v].push_back({j, w});
-          sum += w;
-        }
-      }
-      if (rows[v].empty() || !(sum > 0)) {
-        rows[v].assign(1, {nearest, 1.0});
-        sum = 1;
-      }
-      for (auto& e : rows[v]) e.second /= sum;
-    }
-    std::vector<Eigen::Triplet<double>> trip;
-    for (int v = 0; v < n; ++v)
-      for (auto& e : rows[v]) trip.emplace_back(v, e.first, e.second);
-    s.interp.resize(n, k);
-    s.interp.setFromTriplets(trip.begin(), trip.end());
-  }
+  s.interp = gaussian_interpolation(s.even_dist, rho);
   // Visiting order of P_even: greedy nearest-neighbour tour (coherent walks).
-  {
-    std::vector<char> used(k, 0);
-    int cur = 0;
-    s.even_chain.clear();
-    for (int it = 0; it < k; ++it) {
-      s.even_chain.push_back(cur);
-      used[cur] = 1;
-      int best = -1;
-      for (int j = 0; j < k; ++j)
-        if (!used[j] && (best < 0 || s.even_dist(s.even[j], cur) < s.even_dist(s.even[best], cur))) best = j;
-      if (best < 0) break;
-      cur = best;
-    }
-  }
+  s.even_chain = nearest_neighbour_tour(s.even, s.even_dist);
   s.timings.push_back({"features", seconds_since(t0)});
   report(progress, "bim/prepare " + name, 0.6);
 
@@ -207,25 +232,7 @@ BIMSurface bim_prepare(const TriMesh& input, const std::string& name, const BIMO
   t0 = Clock::now();
   s.closest = std::make_shared<ClosestPoint3>(s.mesh.V, s.mesh.F);
   // BFS order (walk starts from the parent's answer).
-  {
-    auto nb = vertex_neighbors(s.mesh.F, n);
-    s.bfs_order.clear();
-    s.bfs_parent.assign(n, -2);
-    for (int root = 0; root < n; ++root) {
-      if (s.bfs_parent[root] != -2) continue;
-      s.bfs_parent[root] = -1;
-      size_t head = s.bfs_order.size();
-      s.bfs_order.push_back(root);
-      while (head < s.bfs_order.size()) {
-        int v = s.bfs_order[head++];
-        for (int u : nb[v])
-          if (s.bfs_parent[u] == -2) {
-            s.bfs_parent[u] = v;
-            s.bfs_order.push_back(u);
-          }
-      }
-    }
-  }
+  breadth_first_order(s.mesh.F, n, s.bfs_order, s.bfs_parent);
   s.timings.push_back({"closest_point_tree", seconds_since(t0)});
   report(progress, "bim/prepare " + name, 1.0);
   return s;
@@ -408,268 +415,310 @@ Eigen::VectorXd bim_confidence(const BIMSurface& src, const BIMSurface& dst, con
 }
 
 // ---------------------------------------------------------------------------------------
+namespace {
+
+// One direction of BIM (src -> dst), a method per stage of the paper; the stages share the
+// candidates, their confidences, the blending matrix and the groups.
+struct BimDirection {
+  const BIMSurface& src;
+  const BIMSurface& dst;
+  const BIMOptions& opt;
+  const ProgressCallback& progress;
+  const int ne;  // |P_even|
+  BIMDirectionResult R;
+  std::vector<BIMCandidate> cand;
+  int K = 0;  // candidates
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> C;  // K x ne confidences
+  Eigen::VectorXd cand_conf;                                                 // mean of each row of C
+  Eigen::SparseMatrix<double> S;                                             // K x K blending matrix
+  std::vector<std::vector<int>> groups;
+
+  BimDirection(const BIMSurface& s, const BIMSurface& d, const BIMOptions& o, const ProgressCallback& p)
+      : src(s), dst(d), opt(o), progress(p), ne(int(s.even.size())) {}
+
+  // Sec. 4: the candidate Mobius maps from triplets of feature correspondences.
+  void candidates() {
+    // Sec. 4: candidates.
+    auto t0 = Clock::now();
+    cand = bim_candidates(src, dst, opt, &R.num_candidates_total);
+    K = int(cand.size());
+    R.num_candidates = K;
+    if (K == 0) throw Error("BIM: no candidate maps (fewer than 3 feature points)");
+    R.timings.push_back({"candidates", seconds_since(t0)});
+  }
+
+  // Sec. 5: each candidate's confidence at P_even (C, K x ne).
+  void confidence() {
+    // Sec. 5: confidence at P_even, K × ne (row per map).
+    auto t0 = Clock::now();
+    C.resize(K, ne);
+    {
+      int done = 0;
+  #pragma omp parallel for schedule(dynamic, 16)
+      for (int i = 0; i < K; ++i) {
+        confidence_at_even(src, dst, cand[i].mobius, C.row(i).data());
+        int d;
+  #pragma omp atomic capture
+        d = ++done;
+        if ((d & 255) == 0) report(progress, "bim/confidence", double(d) / K);
+      }
+    }
+    report(progress, "bim/confidence", 1.0);
+    cand_conf = C.rowwise().mean();
+    R.best_candidate_confidence = cand_conf.maxCoeff();
+    R.timings.push_back({"confidence", seconds_since(t0)});
+  }
+
+  // Sec. 6.2: the blending matrix S over pairs of candidates sharing two correspondences.
+  void consistency_matrix() {
+    // Sec. 6.2: blending matrix over pairs sharing two correspondences, no conflicts.
+    auto t0 = Clock::now();
+    const long long n2 = (long long)dst.features.size();
+    auto corr_key = [&](int i, int k) { return (long long)cand[i].source[k] * n2 + cand[i].target[k]; };
+    std::vector<std::pair<long long, int>> keyed;  // (pair-of-correspondences key, map)
+    keyed.reserve(size_t(3) * K);
+    const long long nc = (long long)src.features.size() * n2;
+    for (int i = 0; i < K; ++i)
+      for (int a = 0; a < 3; ++a)
+        for (int b = a + 1; b < 3; ++b) {
+          long long ka = corr_key(i, a), kb = corr_key(i, b);
+          if (ka > kb) std::swap(ka, kb);
+          keyed.push_back({ka * nc + kb, i});
+        }
+    std::sort(keyed.begin(), keyed.end());
+    std::vector<std::pair<int, int>> pairs;
+    auto third = [&](int i, long long key) {
+      long long ka = key / nc, kb = key % nc;
+      for (int k = 0; k < 3; ++k) {
+        long long c = corr_key(i, k);
+        if (c != ka && c != kb) return std::make_pair(cand[i].source[k], cand[i].target[k]);
+      }
+      return std::make_pair(-1, -1);
+    };
+    for (size_t s = 0; s < keyed.size();) {
+      size_t e = s;
+      while (e < keyed.size() && keyed[e].first == keyed[s].first) ++e;
+      for (size_t x = s; x < e; ++x)
+        for (size_t y = x + 1; y < e; ++y) {
+          int i = keyed[x].second, j = keyed[y].second;
+          auto ci = third(i, keyed[s].first), cj = third(j, keyed[s].first);
+          bool conflict = (ci.first == cj.first) != (ci.second == cj.second);
+          if (!conflict) pairs.push_back({std::min(i, j), std::max(i, j)});
+        }
+      s = e;
+    }
+    R.num_consistent_pairs = (long long)pairs.size();
+    std::vector<double> pair_val(pairs.size(), 0.0);
+    const double inv_s2 = 1.0 / (opt.sigma * opt.sigma);
+    {
+      long long done = 0;
+      const long long np = (long long)pairs.size();
+  #pragma omp parallel for schedule(dynamic, 64)
+      for (long long q = 0; q < np; ++q) {
+        int i = pairs[q].first, j = pairs[q].second;
+        Mobius Mij = cand[j].mobius.inverse() * cand[i].mobius;  // m_j^{-1} ∘ m_i (source plane)
+        Mobius Mji = cand[i].mobius.inverse() * cand[j].mobius;
+        double sum = 0;
+        for (int sidx = 0; sidx < ne; ++sidx) {
+          double w = C(i, sidx) * C(j, sidx);
+          if (w < opt.consistency_skip) continue;
+          int v = src.even[sidx];
+          double sij = 0;
+          int passes = opt.symmetrize_consistency ? 2 : 1;
+          for (int pass = 0; pass < passes; ++pass) {
+            const Mobius& M = pass == 0 ? Mij : Mji;
+            auto loc = src.locator->locate(sphere_from_plane(M(src.hom[v])), src.locator->vertex_face(v));
+            double d = 0;
+            for (int k = 0; k < 3; ++k) d += loc.bary(k) * src.even_dist(src.mesh.F(loc.face, k), sidx);
+            sij += std::exp(-std::max(d, 0.0) * inv_s2);  // Eq. 5
+          }
+          sum += w * sij / passes;
+        }
+        pair_val[q] = sum / ne;  // A_i = area/256 (Sec. 6.2)
+        long long d;
+  #pragma omp atomic capture
+        d = ++done;
+        if ((d & 1023) == 0) report(progress, "bim/consistency", double(d) / np);
+      }
+    }
+    report(progress, "bim/consistency", 1.0);
+    S.resize(K, K);
+    {
+      std::vector<Eigen::Triplet<double>> trip;
+      trip.reserve(K + 2 * pairs.size());
+      for (int i = 0; i < K; ++i) trip.emplace_back(i, i, C.row(i).squaredNorm() / ne);
+      for (size_t q = 0; q < pairs.size(); ++q) {
+        if (pair_val[q] == 0) continue;
+        trip.emplace_back(pairs[q].first, pairs[q].second, pair_val[q]);
+        trip.emplace_back(pairs[q].second, pairs[q].first, pair_val[q]);
+      }
+      S.setFromTriplets(trip.begin(), trip.end());
+    }
+    R.timings.push_back({"consistency_matrix", seconds_since(t0)});
+  }
+
+  // Sec. 6.2: top eigenvectors of S and the consistent groups they give.
+  void eigenvector_groups() {
+    // Top eigenvectors (Spectra; dense for small K).
+    auto t0 = Clock::now();
+    std::vector<double> evals;
+    std::vector<Eigen::VectorXd> evecs;
+    const int nev = std::max(1, std::min(opt.num_eigenvectors, K - 1));
+    if (K <= 400) {
+      Eigen::MatrixXd Sd = Eigen::MatrixXd(S);
+      Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(Sd);
+      for (int e = 0; e < std::min(nev, K); ++e) {
+        evals.push_back(es.eigenvalues()(K - 1 - e));
+        evecs.push_back(es.eigenvectors().col(K - 1 - e));
+      }
+    } else {
+      Spectra::SparseSymMatProd<double> op(S);
+      int ncv = std::min(K, std::max(2 * nev + 1, 24));
+      Spectra::SymEigsSolver<Spectra::SparseSymMatProd<double>> es(op, nev, ncv);
+      es.init();
+      es.compute(Spectra::SortRule::LargestAlge, 1000, 1e-10);
+      if (es.info() != Spectra::CompInfo::Successful) throw Error("BIM: eigen-solver did not converge");
+      Eigen::VectorXd ev = es.eigenvalues();
+      Eigen::MatrixXd V = es.eigenvectors();
+      for (int e = 0; e < int(ev.size()); ++e) {
+        evals.push_back(ev(e));
+        evecs.push_back(V.col(e));
+      }
+    }
+    R.eigenvalues = evals;
+    // Sec. 6.2: eigenvalues within the fraction of the top one; consistent groups.
+    std::vector<char> assigned(K, 0);
+    auto consistent = [&](int i, const std::vector<int>& g) {
+      for (int j : g)
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b)
+            if ((cand[i].source[a] == cand[j].source[b]) != (cand[i].target[a] == cand[j].target[b]))
+              return false;
+      return true;
+    };
+    R.num_eigenvectors_used = 0;
+    for (size_t e = 0; e < evecs.size(); ++e) {
+      if (evals[e] < opt.eigenvalue_fraction * evals[0]) break;
+      ++R.num_eigenvectors_used;
+      const Eigen::VectorXd& w = evecs[e];
+      std::vector<int> order(K);
+      std::iota(order.begin(), order.end(), 0);
+      std::stable_sort(order.begin(), order.end(),
+                       [&](int a, int b) { return std::abs(w(a)) > std::abs(w(b)); });
+      double wmax = std::abs(w(order[0]));
+      for (int i : order) {
+        if (std::abs(w(i)) < opt.entry_fraction * wmax) break;
+        if (assigned[i]) continue;
+        assigned[i] = 1;
+        bool placed = false;
+        for (auto& g : groups)
+          if (consistent(i, g)) {
+            g.push_back(i);
+            placed = true;
+            break;
+          }
+        if (!placed) groups.push_back({i});
+      }
+    }
+    if (groups.empty()) {  // degenerate spectrum: the most confident map alone
+      int best = 0;
+      cand_conf.maxCoeff(&best);
+      groups.push_back({best});
+    }
+    // Larger groups first (Fig. 3 orders blocks by size); keep the first max_groups.
+    std::stable_sort(groups.begin(), groups.end(),
+                     [](const std::vector<int>& a, const std::vector<int>& b) { return a.size() > b.size(); });
+    if (opt.max_groups > 0 && int(groups.size()) > opt.max_groups) groups.resize(opt.max_groups);
+    R.timings.push_back({"eigenvectors_groups", seconds_since(t0)});
+  }
+
+  // Sec. 7: each group's blended map; the one with the best integrated confidence is R.map.
+  void blend() {
+    // Sec. 7: blended map of each group; keep the one with the best integrated confidence.
+    auto t0 = Clock::now();
+    const int n = src.mesh.num_vertices();
+    double best_ic = -1;
+    std::vector<ClosestPointResult> best_cp;
+    Eigen::MatrixXd best_X;
+    for (size_t g = 0; g < groups.size(); ++g) {
+      const auto& G = groups[g];
+      const int ng = int(G.size());
+      Eigen::MatrixXd Ceven(ne, ng);
+      for (int a = 0; a < ng; ++a) Ceven.col(a) = C.row(G[a]).transpose();
+      Eigen::MatrixXd Cv = src.interp * Ceven;  // n × ng, b_i(p) = c_i(p) w_i, w binary
+      std::vector<Eigen::MatrixXd> P(ng);
+  #pragma omp parallel for schedule(dynamic, 1)
+      for (int a = 0; a < ng; ++a) P[a] = bim_apply(src, dst, cand[G[a]].mobius);
+      Eigen::MatrixXd X = Eigen::MatrixXd::Zero(n, 3);
+      Eigen::VectorXd wsum = Eigen::VectorXd::Zero(n);
+      for (int a = 0; a < ng; ++a) {
+        X += Cv.col(a).asDiagonal() * P[a];
+        wsum += Cv.col(a);
+      }
+      for (int v = 0; v < n; ++v) {
+        if (wsum(v) > 1e-12) {
+          X.row(v) /= wsum(v);
+        } else {
+          Eigen::RowVector3d m = Eigen::RowVector3d::Zero();
+          for (int a = 0; a < ng; ++a) m += P[a].row(v);
+          X.row(v) = m / ng;
+        }
+      }
+      // Closest point on the target to the weighted Euclidean centroid.
+      std::vector<ClosestPointResult> cp = dst.closest->query(X);
+      for (int v = 0; v < n; ++v) {
+        Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
+        for (int k = 0; k < 3; ++k) p += cp[v].bary(k) * dst.mesh.V.row(dst.mesh.F(cp[v].elem, k));
+        X.row(v) = p;
+      }
+      Eigen::VectorXd cf = map_confidence(src.mesh, X);
+      double ic = cf.dot(src.mass);  // ∫ c_f dA on the unit-area source
+      R.group_confidence.push_back(ic);
+      R.group_sizes.push_back(ng);
+      if (ic > best_ic) {
+        best_ic = ic;
+        R.selected_group = int(g);
+        R.confidence = cf;
+        best_cp = std::move(cp);
+        best_X = X;
+      }
+      report(progress, "bim/blend", double(g + 1) / groups.size());
+    }
+    R.integrated_confidence = best_ic;
+    for (int i : groups[R.selected_group]) {
+      BIMMapInfo info;
+      info.index = i;
+      for (int k = 0; k < 3; ++k) {
+        info.source[k] = src.features[cand[i].source[k]];
+        info.target[k] = dst.features[cand[i].target[k]];
+      }
+      info.integrated_confidence = cand_conf(i);
+      R.selected.push_back(info);
+    }
+    R.map.elem.resize(n);
+    R.map.bary.resize(n, 3);
+    for (int v = 0; v < n; ++v) {
+      R.map.elem(v) = best_cp[v].elem;
+      Eigen::Vector3d b = best_cp[v].bary.head<3>().cwiseMax(0.0);
+      R.map.bary.row(v) = (b / b.sum()).transpose();
+    }
+    to_input_faces(dst.mesh.F, dst.F_input, R.map);
+    R.positions = map_positions(R.map, dst.V_input, dst.F_input);
+    R.timings.push_back({"blend", seconds_since(t0)});
+  }
+};
+
+}  // namespace
+
 BIMDirectionResult bim_map(const BIMSurface& src, const BIMSurface& dst, const BIMOptions& opt,
                            const ProgressCallback& progress) {
-  BIMDirectionResult R;
-  const int ne = int(src.even.size());
-
-  // Sec. 4: candidates.
-  auto t0 = Clock::now();
-  std::vector<BIMCandidate> cand = bim_candidates(src, dst, opt, &R.num_candidates_total);
-  const int K = int(cand.size());
-  R.num_candidates = K;
-  if (K == 0) throw Error("BIM: no candidate maps (fewer than 3 feature points)");
-  R.timings.push_back({"candidates", seconds_since(t0)});
-
-  // Sec. 5: confidence at P_even, K × ne (row per map).
-  t0 = Clock::now();
-  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> C(K, ne);
-  {
-    int done = 0;
-#pragma omp parallel for schedule(dynamic, 16)
-    for (int i = 0; i < K; ++i) {
-      confidence_at_even(src, dst, cand[i].mobius, C.row(i).data());
-      int d;
-#pragma omp atomic capture
-      d = ++done;
-      if ((d & 255) == 0) report(progress, "bim/confidence", double(d) / K);
-    }
-  }
-  report(progress, "bim/confidence", 1.0);
-  Eigen::VectorXd cand_conf = C.rowwise().mean();
-  R.best_candidate_confidence = cand_conf.maxCoeff();
-  R.timings.push_back({"confidence", seconds_since(t0)});
-
-  // Sec. 6.2: blending matrix over pairs sharing two correspondences, no conflicts.
-  t0 = Clock::now();
-  const long long n2 = (long long)dst.features.size();
-  auto corr_key = [&](int i, int k) { return (long long)cand[i].source[k] * n2 + cand[i].target[k]; };
-  std::vector<std::pair<long long, int>> keyed;  // (pair-of-correspondences key, map)
-  keyed.reserve(size_t(3) * K);
-  const long long nc = (long long)src.features.size() * n2;
-  for (int i = 0; i < K; ++i)
-    for (int a = 0; a < 3; ++a)
-      for (int b = a + 1; b < 3; ++b) {
-        long long ka = corr_key(i, a), kb = corr_key(i, b);
-        if (ka > kb) std::swap(ka, kb);
-        keyed.push_back({ka * nc + kb, i});
-      }
-  std::sort(keyed.begin(), keyed.end());
-  std::vector<std::pair<int, int>> pairs;
-  auto third = [&](int i, long long key) {
-    long long ka = key / nc, kb = key % nc;
-    for (int k = 0; k < 3; ++k) {
-      long long c = corr_key(i, k);
-      if (c != ka && c != kb) return std::make_pair(cand[i].source[k], cand[i].target[k]);
-    }
-    return std::make_pair(-1, -1);
-  };
-  for (size_t s = 0; s < keyed.size();) {
-    size_t e = s;
-    while (e < keyed.size() && keyed[e].first == keyed[s].first) ++e;
-    for (size_t x = s; x < e; ++x)
-      for (size_t y = x + 1; y < e; ++y) {
-        int i = keyed[x].second, j = keyed[y].second;
-        auto ci = third(i, keyed[s].first), cj = third(j, keyed[s].first);
-        bool conflict = (ci.first == cj.first) != (ci.second == cj.second);
-        if (!conflict) pairs.push_back({std::min(i, j), std::max(i, j)});
-      }
-    s = e;
-  }
-  R.num_consistent_pairs = (long long)pairs.size();
-  std::vector<double> pair_val(pairs.size(), 0.0);
-  const double inv_s2 = 1.0 / (opt.sigma * opt.sigma);
-  {
-    long long done = 0;
-    const long long np = (long long)pairs.size();
-#pragma omp parallel for schedule(dynamic, 64)
-    for (long long q = 0; q < np; ++q) {
-      int i = pairs[q].first, j = pairs[q].second;
-      Mobius Mij = cand[j].mobius.inverse() * cand[i].mobius;  // m_j^{-1} ∘ m_i (source plane)
-      Mobius Mji = cand[i].mobius.inverse() * cand[j].mobius;
-      double sum = 0;
-      for (int sidx = 0; sidx < ne; ++sidx) {
-        double w = C(i, sidx) * C(j, sidx);
-        if (w < opt.consistency_skip) continue;
-        int v = src.even[sidx];
-        double sij = 0;
-        int passes = opt.symmetrize_consistency ? 2 : 1;
-        for (int pass = 0; pass < passes; ++pass) {
-          const Mobius& M = pass == 0 ? Mij : Mji;
-          auto loc = src.locator->locate(sphere_from_plane(M(src.hom[v])), src.locator->vertex_face(v));
-          double d = 0;
-          for (int k = 0; k < 3; ++k) d += loc.bary(k) * src.even_dist(src.mesh.F(loc.face, k), sidx);
-          sij += std::exp(-std::max(d, 0.0) * inv_s2);  // Eq. 5
-        }
-        sum += w * sij / passes;
-      }
-      pair_val[q] = sum / ne;  // A_i = area/256 (Sec. 6.2)
-      long long d;
-#pragma omp atomic capture
-      d = ++done;
-      if ((d & 1023) == 0) report(progress, "bim/consistency", double(d) / np);
-    }
-  }
-  report(progress, "bim/consistency", 1.0);
-  Eigen::SparseMatrix<double> S(K, K);
-  {
-    std::vector<Eigen::Triplet<double>> trip;
-    trip.reserve(K + 2 * pairs.size());
-    for (int i = 0; i < K; ++i) trip.emplace_back(i, i, C.row(i).squaredNorm() / ne);
-    for (size_t q = 0; q < pairs.size(); ++q) {
-      if (pair_val[q] == 0) continue;
-      trip.emplace_back(pairs[q].first, pairs[q].second, pair_val[q]);
-      trip.emplace_back(pairs[q].second, pairs[q].first, pair_val[q]);
-    }
-    S.setFromTriplets(trip.begin(), trip.end());
-  }
-  R.timings.push_back({"consistency_matrix", seconds_since(t0)});
-
-  // Top eigenvectors (Spectra; dense for small K).
-  t0 = Clock::now();
-  std::vector<double> evals;
-  std::vector<Eigen::VectorXd> evecs;
-  const int nev = std::max(1, std::min(opt.num_eigenvectors, K - 1));
-  if (K <= 400) {
-    Eigen::MatrixXd Sd = Eigen::MatrixXd(S);
-    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(Sd);
-    for (int e = 0; e < std::min(nev, K); ++e) {
-      evals.push_back(es.eigenvalues()(K - 1 - e));
-      evecs.push_back(es.eigenvectors().col(K - 1 - e));
-    }
-  } else {
-    Spectra::SparseSymMatProd<double> op(S);
-    int ncv = std::min(K, std::max(2 * nev + 1, 24));
-    Spectra::SymEigsSolver<Spectra::SparseSymMatProd<double>> es(op, nev, ncv);
-    es.init();
-    es.compute(Spectra::SortRule::LargestAlge, 1000, 1e-10);
-    if (es.info() != Spectra::CompInfo::Successful) throw Error("BIM: eigen-solver did not converge");
-    Eigen::VectorXd ev = es.eigenvalues();
-    Eigen::MatrixXd V = es.eigenvectors();
-    for (int e = 0; e < int(ev.size()); ++e) {
-      evals.push_back(ev(e));
-      evecs.push_back(V.col(e));
-    }
-  }
-  R.eigenvalues = evals;
-  // Sec. 6.2: eigenvalues within the fraction of the top one; consistent groups.
-  std::vector<std::vector<int>> groups;
-  std::vector<char> assigned(K, 0);
-  auto consistent = [&](int i, const std::vector<int>& g) {
-    for (int j : g)
-      for (int a = 0; a < 3; ++a)
-        for (int b = 0; b < 3; ++b)
-          if ((cand[i].source[a] == cand[j].source[b]) != (cand[i].target[a] == cand[j].target[b]))
-            return false;
-    return true;
-  };
-  R.num_eigenvectors_used = 0;
-  for (size_t e = 0; e < evecs.size(); ++e) {
-    if (evals[e] < opt.eigenvalue_fraction * evals[0]) break;
-    ++R.num_eigenvectors_used;
-    const Eigen::VectorXd& w = evecs[e];
-    std::vector<int> order(K);
-    std::iota(order.begin(), order.end(), 0);
-    std::stable_sort(order.begin(), order.end(),
-                     [&](int a, int b) { return std::abs(w(a)) > std::abs(w(b)); });
-    double wmax = std::abs(w(order[0]));
-    for (int i : order) {
-      if (std::abs(w(i)) < opt.entry_fraction * wmax) break;
-      if (assigned[i]) continue;
-      assigned[i] = 1;
-      bool placed = false;
-      for (auto& g : groups)
-        if (consistent(i, g)) {
-          g.push_back(i);
-          placed = true;
-          break;
-        }
-      if (!placed) groups.push_back({i});
-    }
-  }
-  if (groups.empty()) {  // degenerate spectrum: the most confident map alone
-    int best = 0;
-    cand_conf.maxCoeff(&best);
-    groups.push_back({best});
-  }
-  // Larger groups first (Fig. 3 orders blocks by size); keep the first max_groups.
-  std::stable_sort(groups.begin(), groups.end(),
-                   [](const std::vector<int>& a, const std::vector<int>& b) { return a.size() > b.size(); });
-  if (opt.max_groups > 0 && int(groups.size()) > opt.max_groups) groups.resize(opt.max_groups);
-  R.timings.push_back({"eigenvectors_groups", seconds_since(t0)});
-
-  // Sec. 7: blended map of each group; keep the one with the best integrated confidence.
-  t0 = Clock::now();
-  const int n = src.mesh.num_vertices();
-  double best_ic = -1;
-  std::vector<ClosestPointResult> best_cp;
-  Eigen::MatrixXd best_X;
-  for (size_t g = 0; g < groups.size(); ++g) {
-    const auto& G = groups[g];
-    const int ng = int(G.size());
-    Eigen::MatrixXd Ceven(ne, ng);
-    for (int a = 0; a < ng; ++a) Ceven.col(a) = C.row(G[a]).transpose();
-    Eigen::MatrixXd Cv = src.interp * Ceven;  // n × ng, b_i(p) = c_i(p) w_i, w binary
-    std::vector<Eigen::MatrixXd> P(ng);
-#pragma omp parallel for schedule(dynamic, 1)
-    for (int a = 0; a < ng; ++a) P[a] = bim_apply(src, dst, cand[G[a]].mobius);
-    Eigen::MatrixXd X = Eigen::MatrixXd::Zero(n, 3);
-    Eigen::VectorXd wsum = Eigen::VectorXd::Zero(n);
-    for (int a = 0; a < ng; ++a) {
-      X += Cv.col(a).asDiagonal() * P[a];
-      wsum += Cv.col(a);
-    }
-    for (int v = 0; v < n; ++v) {
-      if (wsum(v) > 1e-12) {
-        X.row(v) /= wsum(v);
-      } else {
-        Eigen::RowVector3d m = Eigen::RowVector3d::Zero();
-        for (int a = 0; a < ng; ++a) m += P[a].row(v);
-        X.row(v) = m / ng;
-      }
-    }
-    // Closest point on the target to the weighted Euclidean centroid.
-    std::vector<ClosestPointResult> cp = dst.closest->query(X);
-    for (int v = 0; v < n; ++v) {
-      Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
-      for (int k = 0; k < 3; ++k) p += cp[v].bary(k) * dst.mesh.V.row(dst.mesh.F(cp[v].elem, k));
-      X.row(v) = p;
-    }
-    Eigen::VectorXd cf = map_confidence(src.mesh, X);
-    double ic = cf.dot(src.mass);  // ∫ c_f dA on the unit-area source
-    R.group_confidence.push_back(ic);
-    R.group_sizes.push_back(ng);
-    if (ic > best_ic) {
-      best_ic = ic;
-      R.selected_group = int(g);
-      R.confidence = cf;
-      best_cp = std::move(cp);
-      best_X = X;
-    }
-    report(progress, "bim/blend", double(g + 1) / groups.size());
-  }
-  R.integrated_confidence = best_ic;
-  for (int i : groups[R.selected_group]) {
-    BIMMapInfo info;
-    info.index = i;
-    for (int k = 0; k < 3; ++k) {
-      info.source[k] = src.features[cand[i].source[k]];
-      info.target[k] = dst.features[cand[i].target[k]];
-    }
-    info.integrated_confidence = cand_conf(i);
-    R.selected.push_back(info);
-  }
-  R.map.elem.resize(n);
-  R.map.bary.resize(n, 3);
-  for (int v = 0; v < n; ++v) {
-    R.map.elem(v) = best_cp[v].elem;
-    Eigen::Vector3d b = best_cp[v].bary.head<3>().cwiseMax(0.0);
-    R.map.bary.row(v) = (b / b.sum()).transpose();
-  }
-  to_input_faces(dst.mesh.F, dst.F_input, R.map);
-  R.positions = map_positions(R.map, dst.V_input, dst.F_input);
-  R.timings.push_back({"blend", seconds_since(t0)});
-  return R;
+  BimDirection d(src, dst, opt, progress);
+  d.candidates();
+  d.confidence();
+  d.consistency_matrix();
+  d.eigenvector_groups();
+  d.blend();
+  return std::move(d.R);
 }
 
 // ---------------------------------------------------------------------------------------

@@ -1,9 +1,14 @@
 // Elastic correspondence, Algorithm 1 (Eq. 4, 6). See elastic.h and docs/methods.md.
 #include "shapemap/surface/elastic.h"
+#include "shapemap/splitmix.h"
+#include "shapemap/timing.h"
 #include "shapemap/eval/surface_distortion.h"
 
 #include "shapemap/error.h"
 #include "shapemap/geometry/closest_point.h"
+#include "shapemap/geometry/mass.h"
+#include "shapemap/optim/lbfgs_memory.h"
+#include "shapemap/mesh.h"
 #include "shapemap/surface/shell_energy.h"
 
 #include <Eigen/Geometry>
@@ -16,7 +21,6 @@ namespace shapemap {
 namespace {
 
 using RowMat3 = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
-using Clock = std::chrono::steady_clock;
 
 // Loops of Algorithm 1 over vertices run in parallel only from this size on: on the shared
 // 2-core machine a parallel region inside the alternating loop cost more than it saved for
@@ -24,27 +28,11 @@ using Clock = std::chrono::steady_clock;
 // do not depend on it (each row is independent).
 constexpr int kParallelMinRows = 1 << 16;
 
-double seconds_since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
-
-// Lumped (barycentric) mass, M_ii = sum of incident face areas / 3 (Eq. 3).
-Eigen::VectorXd lumped_areas(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
-  Eigen::VectorXd m = Eigen::VectorXd::Zero(V.rows());
-  for (int f = 0; f < F.rows(); ++f) {
-    const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
-    const double area = 0.5 * (b - a).cross(c - a).norm();
-    for (int j = 0; j < 3; ++j) m(F(f, j)) += area / 3.0;
-  }
-  return m;
-}
-
+// Total area, summed in face order (the unit-area scale of Sec. 5.2).
 double total_area(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
+  const Eigen::VectorXd A = triangle_areas(V, F);
   double s = 0;
-  for (int f = 0; f < F.rows(); ++f) {
-    const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
-    s += 0.5 * (b - a).cross(c - a).norm();
-  }
+  for (Eigen::Index f = 0; f < A.size(); ++f) s += A(f);
   return s;
 }
 
@@ -74,32 +62,20 @@ void apply_map(const BarycentricMap& P, const Eigen::MatrixXi& F, const Eigen::M
   }
 }
 
-// L-BFGS of the Y / Y~ steps (Nocedal & Wright Alg. 7.4/7.5 with Armijo backtracking, the
-// same iteration as optim/lbfgs.h with wolfe = false), specialized so that (a) all vectors
-// live in the side and are allocated once per run, (b) the curvature pairs can be kept from
-// one outer iteration to the next (warm start, ElasticOptions::lbfgs_warm_start), and (c)
-// the parts of the energy at the accepted point come from the last evaluation.
+// L-BFGS of the Y / Y~ steps: the curvature memory and two-loop recursion of
+// optim/lbfgs_memory.h (shared with lbfgs_minimize) with an Armijo backtracking of its own,
+// so that (a) all vectors live in the side and are allocated once per run, (b) the
+// curvature pairs can be kept from one outer iteration to the next (warm start,
+// ElasticOptions::lbfgs_warm_start), and (c) the parts of the energy at the accepted point
+// come from the last evaluation.
 struct ElasticLbfgs {
-  int m = 0;
-  Eigen::MatrixXd S, Yd;         // 3n × m curvature pairs (circular buffer)
-  Eigen::VectorXd rho, a;
-  int stored = 0, newest = -1;
-  double gamma = 1;
+  LbfgsMemory H;                 // curvature pairs (optim/lbfgs_memory.h)
   Eigen::VectorXd x, x0, g, d, x_new, g_new;
   void init(Eigen::Index n, int memory) {
-    m = std::max(1, memory);
-    S.resize(n, m);
-    Yd.resize(n, m);
-    rho.resize(m);
-    a.resize(m);
+    H.init(n, memory);
     for (Eigen::VectorXd* v : {&x, &x0, &g, &d, &x_new, &g_new}) v->resize(n);
-    reset();
   }
-  void reset() {
-    stored = 0;
-    newest = -1;
-    gamma = 1;
-  }
+  void reset() { H.reset(); }
 };
 
 // One side of the alternating scheme: the deformation Y of the source (X, F) toward
@@ -328,24 +304,10 @@ int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bij
   ++evaluations;
   parts = obj.last;
   int iterations = 0;
-  const int mm = L.m;
   bool restarted = false;  // the last direction was steepest descent after a reset
   if (std::isfinite(f) && L.g.lpNorm<Eigen::Infinity>() >= opt.inner_tol) {
     while (iterations < opt.inner_max_iterations) {
-      // Two-loop recursion: d = -H g.
-      L.d = L.g;
-      for (int k = 0; k < L.stored; ++k) {
-        const int i = (L.newest - k + mm) % mm;
-        L.a(i) = L.rho(i) * L.S.col(i).dot(L.d);
-        L.d.noalias() -= L.a(i) * L.Yd.col(i);
-      }
-      L.d *= L.gamma;
-      for (int k = L.stored - 1; k >= 0; --k) {
-        const int i = (L.newest - k + mm) % mm;
-        const double b = L.rho(i) * L.Yd.col(i).dot(L.d);
-        L.d.noalias() += (L.a(i) - b) * L.S.col(i);
-      }
-      L.d = -L.d;
+      L.H.direction(L.g, L.d);  // d = -H g
       double gd = L.g.dot(L.d);
       if (!(gd < 0)) {  // not a descent direction (rounding): steepest descent
         L.reset();
@@ -359,7 +321,7 @@ int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bij
       // decrease alpha |g.d| is below the inner stalled-progress tolerance (an accepted step
       // would end the solve on that criterion anyway) instead of halving down to rounding
       // noise (up to 40 evaluations, then as many again from steepest descent).
-      double alpha = L.stored == 0 ? std::min(1.0, 1.0 / std::sqrt(-gd)) : 1.0;
+      double alpha = L.H.stored() == 0 ? std::min(1.0, 1.0 / std::sqrt(-gd)) : 1.0;
       const double c1 = 1e-4;
       const double min_decrease =
           f_tol > 0 ? f_tol * std::max(1.0, std::abs(f)) : 0.0;
@@ -388,7 +350,7 @@ int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bij
         alpha = next;
       }
       if (!ok) {
-        if (L.stored > 0 && !restarted) {  // retry once from steepest descent
+        if (L.H.stored() > 0 && !restarted) {  // retry once from steepest descent
           L.reset();
           restarted = true;
           continue;
@@ -396,20 +358,7 @@ int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bij
         break;
       }
       restarted = false;
-      // Curvature pair; skipped when s'y <= 1e-10 |s| |y| (no positive curvature).
-      const int slot = (L.newest + 1) % mm;
-      L.S.col(slot) = L.x_new - L.x;
-      L.Yd.col(slot) = L.g_new - L.g;
-      const double sy = L.S.col(slot).dot(L.Yd.col(slot));
-      const double yy = L.Yd.col(slot).squaredNorm();
-      if (sy > 1e-10 * std::sqrt(L.S.col(slot).squaredNorm() * yy) && sy > 0) {
-        L.newest = slot;
-        L.rho(slot) = 1.0 / sy;
-        L.gamma = sy / yy;
-        L.stored = std::min(L.stored + 1, mm);
-      } else if (L.stored == mm) {
-        --L.stored;  // the slot held the oldest pair, now overwritten: drop it
-      }
+      L.H.add_pair(L.x, L.x_new, L.g, L.g_new);
       const double f_old = f;
       L.x.swap(L.x_new);
       L.g.swap(L.g_new);
@@ -449,11 +398,8 @@ int unstick_collapsed(Side& s) {
     for (int j = 0; j < 3; ++j) {
       const unsigned v = unsigned(s.F(f, j));
       for (int k = 0; k < 3; ++k) {
-        // splitmix-style hash -> [-1, 1]
-        unsigned long long z = (unsigned long long)v * 3 + k + 0x9E3779B97F4A7C15ull;
-        z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-        z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-        z ^= z >> 31;
+        // hash of (vertex, coordinate) -> [-1, 1]
+        const std::uint64_t z = splitmix64_hash(std::uint64_t(v) * 3 + k);
         s.Y(v, k) += h * (double(z >> 11) / double(1ull << 53) * 2.0 - 1.0);
       }
     }
@@ -537,6 +483,103 @@ struct DirectionLog {
 
 }  // namespace
 
+namespace {
+
+// One outer iteration of Algorithm 1: P step, Y step and (bijective) Q step, Y~ step, with
+// the energy terms at its end and the time of each kind of step.
+ElasticIterate alternate_once(Side& a, Side& b, double beta, double gamma, bool bij, const ElasticOptions& opt,
+                              double f_tol) {
+  ElasticIterate it;
+  it.beta = beta;
+  EnergyParts pa, pb;
+  auto t0 = Clock::now();
+  projection_step(a, b, beta, gamma, bij, opt.safe_projection);  // P step
+  it.time_projection += seconds_since(t0);
+  t0 = Clock::now();
+  it.inner_iterations += deformation_step(a, b, beta, gamma, bij, opt, f_tol, pa, it.inner_evaluations);  // Y step
+  it.time_deformation += seconds_since(t0);
+  if (bij) {
+    t0 = Clock::now();
+    projection_step(b, a, beta, gamma, bij, opt.safe_projection);  // Q step
+    it.time_projection += seconds_since(t0);
+    t0 = Clock::now();
+    it.inner_iterations += deformation_step(b, a, beta, gamma, bij, opt, f_tol, pb, it.inner_evaluations);  // Y~ step
+    it.time_deformation += seconds_since(t0);
+    it.deformation = pa.deformation + pb.deformation;
+    it.mismatch = pa.mismatch + pb.mismatch;
+    // Q changed after side a's step: recompute gamma |Q Y - X~| with the final Q.
+    {
+      RowMat3 QY;
+      apply_map(b.P, a.F, Eigen::MatrixXd(a.Y), QY);
+      double r = 0;
+      for (int j = 0; j < QY.rows(); ++j) r += b.mass(j) * (QY.row(j) - b.X.row(j)).squaredNorm();
+      it.reversibility = gamma * r + pb.reversibility;
+    }
+  } else {
+    it.deformation = pa.deformation;
+    it.mismatch = pa.mismatch;
+  }
+  it.energy = it.deformation + it.mismatch + it.reversibility;
+  return it;
+}
+
+// Collapse guard: per direction the last iterate, or the latest one with no more flipped or
+// collapsed triangles than the start, or the start (ElasticOptions::keep_no_worse).
+void collapse_guard(const DirectionLog& L, const Side& s, const BarycentricMap& init, const TriMesh& T,
+                    const Normalization& nt, bool keep_no_worse, int outer_iterations, ElasticGuard& g,
+                    BarycentricMap& P_out, Eigen::MatrixXd& Y_out, BarycentricMap& last_out) {
+  g.initial_bad = L.map0.bad();
+  g.last_bad = L.map_folds(s.P, nullptr).bad();
+  g.iteration = outer_iterations;
+  g.returned = ElasticReturned::Last;
+  g.returned_bad = g.last_bad;
+  P_out = s.P;
+  Y_out = nt.undo(Eigen::MatrixXd(s.Y));
+  if (!keep_no_worse || g.last_bad <= g.initial_bad) return;
+  last_out = s.P;
+  if (L.keep_iteration > 0) {
+    g.returned = ElasticReturned::EarlierIterate;
+    g.iteration = L.keep_iteration;
+    P_out = L.keep_P;
+    Y_out = nt.undo(L.keep_Y);
+    g.returned_bad = L.map_folds(P_out, nullptr).bad();
+  } else {
+    g.returned = ElasticReturned::Initial;
+    g.iteration = 0;
+    P_out = init;
+    Y_out = map_positions(init, T.V, T.F);
+    g.returned_bad = g.initial_bad;
+  }
+}
+
+// The fold logs of both directions (issue 20: fold counts per outer iteration, first
+// collapses, the collapse guard), on unit-area copies so that the counts are the ones
+// report.json shows.
+void setup_direction_logs(const TriMesh& A, const TriMesh& B, const BarycentricMap& init_AB,
+                          const BarycentricMap& init_BA, const Side& a, const Side& b, bool bij,
+                          bool normalize_area, DirectionLog& logA, DirectionLog& logB) {
+  const Normalization ua = unit_area_normalization(A), ub = unit_area_normalization(B);
+  const Eigen::MatrixXd XA = ua.apply(A.V), XB = ub.apply(B.V);
+  const Eigen::MatrixXd NA = face_normals(XA, A.F), NB = face_normals(XB, B.F);
+  auto setup = [&](DirectionLog& L, const TriMesh& S, const Eigen::MatrixXd& Xs,
+                   const Eigen::MatrixXd& Xt, const Eigen::MatrixXi& Ft, const Eigen::MatrixXd& Nt,
+                   const Normalization& ut, const BarycentricMap& init, const Side& side) {
+    L.S = &S;
+    L.Xs = Xs;
+    L.Xt = Xt;
+    L.Ft = Ft;
+    L.Nt = Nt;
+    L.to_unit_target = ut;
+    L.working_is_unit = normalize_area;
+    L.map0 = L.map_folds(init, &L.map0_faces);  // the user's map, as the CLI reports it
+    L.shell0 = L.shell_folds(side.Y, side.P, &L.shell0_faces);
+  };
+  setup(logA, A, XA, XB, B.F, NB, ub, init_AB, a);
+  if (bij) setup(logB, B, XB, XA, A.F, NA, ua, init_BA, b);
+}
+
+}  // namespace
+
 ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
                                      const BarycentricMap& init_AB,
                                      const BarycentricMap& init_BA, const ElasticOptions& opt) {
@@ -569,8 +612,8 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
   a.F = A.F;
   b.X = nb.apply(B.V);
   b.F = B.F;
-  a.mass = lumped_areas(a.X, a.F);
-  b.mass = lumped_areas(b.X, b.F);
+  a.mass = lumped_mass(a.X, a.F);  // M_ii = incident face areas / 3 (Eq. 3)
+  b.mass = lumped_mass(b.X, b.F);
   ShellEnergyOptions so = shell_energy_options(opt);
   so.alpha = alphaA;
   a.shell = ShellEnergy(a.X, a.F, so);
@@ -599,26 +642,7 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
   // Issue 20: fold counts per outer iteration, first collapses, and the collapse guard. The
   // counts are taken on unit-area copies so that they are the ones report.json shows.
   DirectionLog logA, logB;
-  {
-    const Normalization ua = unit_area_normalization(A), ub = unit_area_normalization(B);
-    const Eigen::MatrixXd XA = ua.apply(A.V), XB = ub.apply(B.V);
-    const Eigen::MatrixXd NA = face_normals(XA, A.F), NB = face_normals(XB, B.F);
-    auto setup = [&](DirectionLog& L, const TriMesh& S, const Eigen::MatrixXd& Xs,
-                     const Eigen::MatrixXd& Xt, const Eigen::MatrixXi& Ft, const Eigen::MatrixXd& Nt,
-                     const Normalization& ut, const BarycentricMap& init, const Side& side) {
-      L.S = &S;
-      L.Xs = Xs;
-      L.Xt = Xt;
-      L.Ft = Ft;
-      L.Nt = Nt;
-      L.to_unit_target = ut;
-      L.working_is_unit = opt.normalize_area;
-      L.map0 = L.map_folds(init, &L.map0_faces);  // the user's map, as the CLI reports it
-      L.shell0 = L.shell_folds(side.Y, side.P, &L.shell0_faces);
-    };
-    setup(logA, A, XA, XB, B.F, NB, ub, init_AB, a);
-    if (bij) setup(logB, B, XB, XA, A.F, NA, ua, init_BA, b);
-  }
+  setup_direction_logs(A, B, init_AB, init_BA, a, b, bij, opt.normalize_area, logA, logB);
   res.time_setup = seconds_since(t_start);
 
   const double gamma_full = opt.gamma * wscale;
@@ -631,37 +655,7 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
     const double gamma = opt.gamma_ramp ? gamma_full * frac : gamma_full;
     const double f_tol =
         k < opt.beta_ramp_iterations && opt.inner_f_tol_ramp > 0 ? opt.inner_f_tol_ramp : opt.inner_f_tol;
-    ElasticIterate it;
-    it.beta = beta;
-    EnergyParts pa, pb;
-    auto t0 = Clock::now();
-    projection_step(a, b, beta, gamma, bij, opt.safe_projection);  // P step
-    it.time_projection += seconds_since(t0);
-    t0 = Clock::now();
-    it.inner_iterations += deformation_step(a, b, beta, gamma, bij, opt, f_tol, pa, it.inner_evaluations);  // Y step
-    it.time_deformation += seconds_since(t0);
-    if (bij) {
-      t0 = Clock::now();
-      projection_step(b, a, beta, gamma, bij, opt.safe_projection);  // Q step
-      it.time_projection += seconds_since(t0);
-      t0 = Clock::now();
-      it.inner_iterations += deformation_step(b, a, beta, gamma, bij, opt, f_tol, pb, it.inner_evaluations);  // Y~ step
-      it.time_deformation += seconds_since(t0);
-      it.deformation = pa.deformation + pb.deformation;
-      it.mismatch = pa.mismatch + pb.mismatch;
-      // Q changed after side a's step: recompute gamma |Q Y - X~| with the final Q.
-      {
-        RowMat3 QY;
-        apply_map(b.P, a.F, Eigen::MatrixXd(a.Y), QY);
-        double r = 0;
-        for (int j = 0; j < QY.rows(); ++j) r += b.mass(j) * (QY.row(j) - b.X.row(j)).squaredNorm();
-        it.reversibility = gamma * r + pb.reversibility;
-      }
-    } else {
-      it.deformation = pa.deformation;
-      it.mismatch = pa.mismatch;
-    }
-    it.energy = it.deformation + it.mismatch + it.reversibility;
+    ElasticIterate it = alternate_once(a, b, beta, gamma, bij, opt, f_tol);
     logA.after_iteration(a, k + 1, opt.keep_no_worse, it.P_folds, it.Y_folds, res.first_P_collapse,
                          res.first_Y_collapse);
     if (bij)
@@ -685,37 +679,12 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
   }
   res.degenerate_faces_final =
       count_degenerate(a, opt.degenerate_tol) + (bij ? count_degenerate(b, opt.degenerate_tol) : 0);
-  // Collapse guard: per direction the last iterate, or the latest one with no more flipped or
-  // collapsed triangles than the start, or the start (ElasticOptions::keep_no_worse).
-  auto guarded = [&](const DirectionLog& L, const Side& s, const BarycentricMap& init,
-                     const TriMesh& T, const Normalization& nt, ElasticGuard& g,
-                     BarycentricMap& P_out, Eigen::MatrixXd& Y_out, BarycentricMap& last_out) {
-    g.initial_bad = L.map0.bad();
-    g.last_bad = L.map_folds(s.P, nullptr).bad();
-    g.iteration = res.outer_iterations;
-    g.returned = ElasticReturned::Last;
-    g.returned_bad = g.last_bad;
-    P_out = s.P;
-    Y_out = nt.undo(Eigen::MatrixXd(s.Y));
-    if (!opt.keep_no_worse || g.last_bad <= g.initial_bad) return;
-    last_out = s.P;
-    if (L.keep_iteration > 0) {
-      g.returned = ElasticReturned::EarlierIterate;
-      g.iteration = L.keep_iteration;
-      P_out = L.keep_P;
-      Y_out = nt.undo(L.keep_Y);
-      g.returned_bad = L.map_folds(P_out, nullptr).bad();
-    } else {
-      g.returned = ElasticReturned::Initial;
-      g.iteration = 0;
-      P_out = init;
-      Y_out = map_positions(init, T.V, T.F);
-      g.returned_bad = g.initial_bad;
-    }
-  };
   res.projection_rows_kept = a.rows_kept + b.rows_kept;
-  guarded(logA, a, init_AB, B, nb, res.guard_AB, res.map_AB, res.Y, res.last_AB);
-  if (bij) guarded(logB, b, init_BA, A, na, res.guard_BA, res.map_BA, res.Ytilde, res.last_BA);
+  collapse_guard(logA, a, init_AB, B, nb, opt.keep_no_worse, res.outer_iterations, res.guard_AB, res.map_AB, res.Y,
+                 res.last_AB);
+  if (bij)
+    collapse_guard(logB, b, init_BA, A, na, opt.keep_no_worse, res.outer_iterations, res.guard_BA, res.map_BA,
+                   res.Ytilde, res.last_BA);
   res.time_total = seconds_since(t_start);
   return res;
 }
@@ -763,13 +732,13 @@ double elastic_energy(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F,
   Side a, b;
   a.X = X;
   a.F = F;
-  a.mass = lumped_areas(X, F);
+  a.mass = lumped_mass(X, F);
   a.shell = ShellEnergy(X, F, shell);
   a.P = P;
   a.Y = Y;
   b.X = Xt;
   b.F = Ft;
-  b.mass = lumped_areas(Xt, Ft);
+  b.mass = lumped_mass(Xt, Ft);
   apply_map(a.P, b.F, b.X, a.PXt);
   if (bij) {
     b.shell = ShellEnergy(Xt, Ft, shell);

@@ -151,117 +151,119 @@ ShellEnergy::ShellEnergy(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F,
     }
 }
 
-double ShellEnergy::evaluate(const double* y, double* grad, ShellEnergyTerms* terms) const {
-  const int m = int(F_.rows()), k = int(E_.rows());
-  const double alpha = opt_.alpha, eta = opt_.eta, lam = opt_.lambda, mu = opt_.mu,
-               eps = opt_.log_eps, tol = opt_.degenerate_tol;
-  const bool want_grad = grad != nullptr;
-  const bool do_bend = eta != 0.0 && k > 0;
+// Pass 1, per face f: normal N_f (unit normal and length stored), degeneracy, membrane
+// energy and gradient (Eq. 7) w.r.t. the edge vectors e1 = x1 - x0, e2 = x2 - x0.
+void ShellEnergy::membrane_face(int f, const double* y, bool want_grad) const {
+  const double alpha = opt_.alpha, lam = opt_.lambda, mu = opt_.mu, eps = opt_.log_eps, tol = opt_.degenerate_tol;
+  const V3 x0 = row3(y, F_(f, 0)), x1 = row3(y, F_(f, 1)), x2 = row3(y, F_(f, 2));
+  const V3 e1 = x1 - x0, e2 = x2 - x0;
+  const V3 N = e1.cross(e2);
+  const double Nlen = N.norm();
+  fdeg_[f] = !(Nlen > tol * nref_(f)) || nref_(f) == 0;
+  fNlen_[f] = Nlen;
+  const V3 n = Nlen > 0 ? V3(N / Nlen) : V3::Zero();
+  double* nf = fn_.data() + 3 * size_t(f);
+  nf[0] = n(0), nf[1] = n(1), nf[2] = n(2);
+  double* gm = fmem_.data() + 6 * size_t(f);
+  const double a = area_(f);
+  if (a == 0) {
+    fenergy_(f) = 0;
+    if (want_grad) std::fill(gm, gm + 6, 0.0);
+    return;
+  }
+  const double h00 = ginv_(f, 0), h01 = ginv_(f, 1), h11 = ginv_(f, 2);
+  const double g00 = e1.dot(e1), g01 = e1.dot(e2), g11 = e2.dot(e2);
+  const double t = h00 * g00 + 2 * h01 * g01 + h11 * g11;  // tr(g^-1 g)
+  const double d = N.squaredNorm() / detg_(f);              // det(g^-1 g)
+  double Wt, Wd;
+  fenergy_(f) = a * membrane_density(t, d, lam, mu, eps, &Wt, &Wd);
+  if (want_grad) {
+    // d t/d e1 = 2(h00 e1 + h01 e2), d t/d e2 = 2(h01 e1 + h11 e2)
+    // d d/d e1 = 2 (e2 x N)/det g^, d d/d e2 = 2 (N x e1)/det g^
+    const double s = 2 * a * alpha, sd = Wd / detg_(f);
+    const V3 g1 = s * (Wt * (h00 * e1 + h01 * e2) + sd * e2.cross(N));
+    const V3 g2 = s * (Wt * (h01 * e1 + h11 * e2) + sd * N.cross(e1));
+    gm[0] = g1(0), gm[1] = g1(1), gm[2] = g1(2);
+    gm[3] = g2(0), gm[4] = g2(1), gm[5] = g2(2);
+  }
+}
+
+// Pass 2, per face f: the bending terms (Eq. 9) of its interior edges from the stored
+// normals; the edge's energy and admissibility are written by its side-0 face only,
+// dE/dN_f is pushed to f's corners together with the membrane gradient.
+// out: the 9 corner gradients (corner-major).
+void ShellEnergy::bending_face(int f, const double* y, bool want_grad, bool do_bend, double* out) const {
+  const double eta = opt_.eta;
   const bool frozen = frozen_;
   const double inf = std::numeric_limits<double>::infinity();
+  const double* gm = fmem_.data() + 6 * size_t(f);
+  V3 g1(gm[0], gm[1], gm[2]), g2(gm[3], gm[4], gm[5]);
+  V3 g0 = -g1 - g2;
+  if (do_bend) {
+    const bool degf = fdeg_[f];
+    const double Nlen = fNlen_[f];
+    const V3 nf(fn_[3 * size_t(f)], fn_[3 * size_t(f) + 1], fn_[3 * size_t(f) + 2]);
+    V3 G = V3::Zero();  // eta dW_bnd/dN_f
+    bool any = false;
+    double ebend = 0;  // bending energy of the edges whose side-0 face is f
+    int nadm = 0;
+    const Slot* sl = slots_.data() + 3 * size_t(f);
+    for (int j = 0; j < 3; ++j) {
+      const Slot& q = sl[j];
+      if (q.e < 0) continue;
+      const int h = q.h;  // the neighbour across edge q.e
+      const bool adm = frozen ? frozen_adm_[q.e] != 0 : !(degf || fdeg_[h]);
+      if (!adm) continue;
+      if (q.side == 0) ++nadm;
+      if (!(Nlen > 0) || !(fNlen_[h] > 0)) {  // frozen-admissible but collapsed: reject
+        if (q.side == 0) ebend = inf;
+        continue;
+      }
+      const V3 nh(fn_[3 * size_t(h)], fn_[3 * size_t(h) + 1], fn_[3 * size_t(h) + 2]);
+      const double c = q.side == 0 ? nf.dot(nh) : nh.dot(nf);
+      const double delta = q.cosr - c;
+      if (q.side == 0) ebend += q.w * delta * delta;
+      if (want_grad) {
+        const double dEdc = -2 * eta * q.w * delta;
+        G += (dEdc / Nlen) * (nh - c * nf);
+        any = true;
+      }
+    }
+    fbend_[f] = ebend;
+    fadm_[f] = char(nadm);
+    if (any) {
+      // N = e1 x e2: G.dN = de1.(e2 x G) + de2.(G x e1)
+      const V3 x0 = row3(y, F_(f, 0));
+      const V3 e1 = row3(y, F_(f, 1)) - x0, e2 = row3(y, F_(f, 2)) - x0;
+      const V3 b1 = e2.cross(G), b2 = G.cross(e1);
+      g0 -= b1 + b2;
+      g1 += b1;
+      g2 += b2;
+    }
+  }
+  if (want_grad)
+    for (int c = 0; c < 3; ++c) {
+      out[c] = g0(c);
+      out[3 + c] = g1(c);
+      out[6 + c] = g2(c);
+    }
+}
 
-  // Pass 1, per face f: normal N_f (unit normal and length stored), degeneracy, membrane
-  // energy and gradient (Eq. 7) w.r.t. the edge vectors e1 = x1 - x0, e2 = x2 - x0.
-  auto pass1 = [&](int f) {
-    const V3 x0 = row3(y, F_(f, 0)), x1 = row3(y, F_(f, 1)), x2 = row3(y, F_(f, 2));
-    const V3 e1 = x1 - x0, e2 = x2 - x0;
-    const V3 N = e1.cross(e2);
-    const double Nlen = N.norm();
-    fdeg_[f] = !(Nlen > tol * nref_(f)) || nref_(f) == 0;
-    fNlen_[f] = Nlen;
-    const V3 n = Nlen > 0 ? V3(N / Nlen) : V3::Zero();
-    double* nf = fn_.data() + 3 * size_t(f);
-    nf[0] = n(0), nf[1] = n(1), nf[2] = n(2);
-    double* gm = fmem_.data() + 6 * size_t(f);
-    const double a = area_(f);
-    if (a == 0) {
-      fenergy_(f) = 0;
-      if (want_grad) std::fill(gm, gm + 6, 0.0);
-      return;
-    }
-    const double h00 = ginv_(f, 0), h01 = ginv_(f, 1), h11 = ginv_(f, 2);
-    const double g00 = e1.dot(e1), g01 = e1.dot(e2), g11 = e2.dot(e2);
-    const double t = h00 * g00 + 2 * h01 * g01 + h11 * g11;  // tr(g^-1 g)
-    const double d = N.squaredNorm() / detg_(f);              // det(g^-1 g)
-    double Wt, Wd;
-    fenergy_(f) = a * membrane_density(t, d, lam, mu, eps, &Wt, &Wd);
-    if (want_grad) {
-      // d t/d e1 = 2(h00 e1 + h01 e2), d t/d e2 = 2(h01 e1 + h11 e2)
-      // d d/d e1 = 2 (e2 x N)/det g^, d d/d e2 = 2 (N x e1)/det g^
-      const double s = 2 * a * alpha, sd = Wd / detg_(f);
-      const V3 g1 = s * (Wt * (h00 * e1 + h01 * e2) + sd * e2.cross(N));
-      const V3 g2 = s * (Wt * (h01 * e1 + h11 * e2) + sd * N.cross(e1));
-      gm[0] = g1(0), gm[1] = g1(1), gm[2] = g1(2);
-      gm[3] = g2(0), gm[4] = g2(1), gm[5] = g2(2);
-    }
-  };
-  // Pass 2, per face f: the bending terms (Eq. 9) of its interior edges from the stored
-  // normals; the edge's energy and admissibility are written by its side-0 face only,
-  // dE/dN_f is pushed to f's corners together with the membrane gradient.
-  // out: the 9 corner gradients (corner-major).
-  auto pass2 = [&](int f, double* out) {
-    const double* gm = fmem_.data() + 6 * size_t(f);
-    V3 g1(gm[0], gm[1], gm[2]), g2(gm[3], gm[4], gm[5]);
-    V3 g0 = -g1 - g2;
-    if (do_bend) {
-      const bool degf = fdeg_[f];
-      const double Nlen = fNlen_[f];
-      const V3 nf(fn_[3 * size_t(f)], fn_[3 * size_t(f) + 1], fn_[3 * size_t(f) + 2]);
-      V3 G = V3::Zero();  // eta dW_bnd/dN_f
-      bool any = false;
-      double ebend = 0;  // bending energy of the edges whose side-0 face is f
-      int nadm = 0;
-      const Slot* sl = slots_.data() + 3 * size_t(f);
-      for (int j = 0; j < 3; ++j) {
-        const Slot& q = sl[j];
-        if (q.e < 0) continue;
-        const int h = q.h;  // the neighbour across edge q.e
-        const bool adm = frozen ? frozen_adm_[q.e] != 0 : !(degf || fdeg_[h]);
-        if (!adm) continue;
-        if (q.side == 0) ++nadm;
-        if (!(Nlen > 0) || !(fNlen_[h] > 0)) {  // frozen-admissible but collapsed: reject
-          if (q.side == 0) ebend = inf;
-          continue;
-        }
-        const V3 nh(fn_[3 * size_t(h)], fn_[3 * size_t(h) + 1], fn_[3 * size_t(h) + 2]);
-        const double c = q.side == 0 ? nf.dot(nh) : nh.dot(nf);
-        const double delta = q.cosr - c;
-        if (q.side == 0) ebend += q.w * delta * delta;
-        if (want_grad) {
-          const double dEdc = -2 * eta * q.w * delta;
-          G += (dEdc / Nlen) * (nh - c * nf);
-          any = true;
-        }
-      }
-      fbend_[f] = ebend;
-      fadm_[f] = char(nadm);
-      if (any) {
-        // N = e1 x e2: G.dN = de1.(e2 x G) + de2.(G x e1)
-        const V3 x0 = row3(y, F_(f, 0));
-        const V3 e1 = row3(y, F_(f, 1)) - x0, e2 = row3(y, F_(f, 2)) - x0;
-        const V3 b1 = e2.cross(G), b2 = G.cross(e1);
-        g0 -= b1 + b2;
-        g1 += b1;
-        g2 += b2;
-      }
-    }
-    if (want_grad)
-      for (int c = 0; c < 3; ++c) {
-        out[c] = g0(c);
-        out[3 + c] = g1(c);
-        out[6 + c] = g2(c);
-      }
-  };
+double ShellEnergy::evaluate(const double* y, double* grad, ShellEnergyTerms* terms) const {
+  const int m = int(F_.rows()), k = int(E_.rows());
+  const double alpha = opt_.alpha, eta = opt_.eta;
+  const bool want_grad = grad != nullptr;
+  const bool do_bend = eta != 0.0 && k > 0;
 
   if (m < opt_.parallel_min_faces) {
     // Serial: corner gradients scattered in increasing face order, which adds the same
     // terms in the same order as the parallel gather below (bitwise identical results).
-    for (int f = 0; f < m; ++f) pass1(f);
+    for (int f = 0; f < m; ++f) membrane_face(f, y, want_grad);
     if (want_grad || do_bend) {
       if (want_grad) std::fill(grad, grad + 3 * size_t(n_), 0.0);
       double out[9];
       for (int f = 0; f < m; ++f) {
-        pass2(f, out);
+        bending_face(f, y, want_grad, do_bend, out);
         if (want_grad)
           for (int c = 0; c < 3; ++c) {
             double* gv = grad + 3 * size_t(F_(f, c));
@@ -278,11 +280,11 @@ double ShellEnergy::evaluate(const double* y, double* grad, ShellEnergyTerms* te
 #pragma omp parallel
     {
 #pragma omp for schedule(static)
-      for (int f = 0; f < m; ++f) pass1(f);
+      for (int f = 0; f < m; ++f) membrane_face(f, y, want_grad);
       if (want_grad || do_bend) {
         double out[9];
 #pragma omp for schedule(static)
-        for (int f = 0; f < m; ++f) pass2(f, want_grad ? fgrad_.data() + 9 * size_t(f) : out);
+        for (int f = 0; f < m; ++f) bending_face(f, y, want_grad, do_bend, want_grad ? fgrad_.data() + 9 * size_t(f) : out);
       }
       if (want_grad) {
 #pragma omp for schedule(static)

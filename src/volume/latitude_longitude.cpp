@@ -18,24 +18,22 @@ namespace {
 
 using Adjacency = std::vector<std::vector<std::pair<int, double>>>;
 
-// The map for given poles a, b (see the header); adj: positive edge weights, target: face
-// area shares. Empty S when the construction fails.
-LatitudeLongitudeMap map_with_poles(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
-                                    const Adjacency& adj, const Eigen::VectorXd& target,
-                                    Eigen::Index a, Eigen::Index b) {
-  const Eigen::Index n = V.rows(), m = F.rows();
-  LatitudeLongitudeMap out;
-  if (a == b) return out;
-  size_t wcount = 0;
-  for (const auto& nb : adj) wcount += nb.size();
-  // Harmonic solve over the vertices other than the poles: (L x)_i = rhs_i, the poles
-  // either Dirichlet values (`fixed`) or left out with their edges (fixed empty; the
-  // constant is then pinned at `gauge`).
-  std::vector<int> idx(n, -1);
+// Harmonic solves over the vertices other than the poles a, b: (L x)_i = rhs_i, the poles
+// either Dirichlet values (`fixed`, n-vector) or left out with their edges (fixed empty; the
+// free constant is then pinned at unknown `gauge`). Unknown numbering idx: -1 at the poles.
+struct HarmonicWithoutPoles {
+  const Adjacency& adj;
+  std::vector<int> idx;
   int nu = 0;
-  for (Eigen::Index i = 0; i < n; ++i)
-    if (i != a && i != b) idx[i] = nu++;
-  auto solve = [&](const Eigen::VectorXd& rhs, const Eigen::VectorXd& fixed, int gauge) {
+  size_t wcount = 0;
+  HarmonicWithoutPoles(const Adjacency& adjacency, Eigen::Index a, Eigen::Index b)
+      : adj(adjacency), idx(adjacency.size(), -1) {
+    for (const auto& nb : adj) wcount += nb.size();
+    for (size_t i = 0; i < adj.size(); ++i)
+      if (Eigen::Index(i) != a && Eigen::Index(i) != b) idx[i] = nu++;
+  }
+  Eigen::VectorXd solve(const Eigen::VectorXd& rhs, const Eigen::VectorXd& fixed, int gauge) const {
+    const Eigen::Index n = Eigen::Index(adj.size());
     const bool dirichlet = fixed.size() == n;
     std::vector<Eigen::Triplet<double>> trip;
     trip.reserve(size_t(wcount) + size_t(n));
@@ -65,6 +63,21 @@ LatitudeLongitudeMap map_with_poles(const Eigen::MatrixXd& V, const Eigen::Matri
     for (Eigen::Index i = 0; i < n; ++i)
       if (idx[i] >= 0) out(i) = x(idx[i]);
     return out;
+  }
+};
+
+// The map for given poles a, b (see the header); adj: positive edge weights, target: face
+// area shares. Empty S when the construction fails.
+LatitudeLongitudeMap map_with_poles(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
+                                    const Adjacency& adj, const Eigen::VectorXd& target,
+                                    Eigen::Index a, Eigen::Index b) {
+  const Eigen::Index n = V.rows(), m = F.rows();
+  LatitudeLongitudeMap out;
+  if (a == b) return out;
+  const HarmonicWithoutPoles harmonic(adj, a, b);
+  const std::vector<int>& idx = harmonic.idx;
+  auto solve = [&](const Eigen::VectorXd& rhs, const Eigen::VectorXd& fixed, int gauge) {
+    return harmonic.solve(rhs, fixed, gauge);
   };
   Eigen::VectorXd fixed = Eigen::VectorXd::Zero(n);
   fixed(b) = 1;

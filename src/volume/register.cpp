@@ -1,5 +1,6 @@
 // Registration through the ball (isovolumetric-ball-parameterization.txt, Sec. 7).
 #include "shapemap/volume/register.h"
+#include "shapemap/timing.h"
 #include "shapemap/error.h"
 #include "shapemap/volume/symmetric_map.h"
 #include <Eigen/LU>
@@ -11,8 +12,6 @@
 namespace shapemap {
 
 namespace {
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 // Locates the points P (source vertices carried into the target's ball) in the target's
 // ball mesh (f_target, target.T): the map (clamped barycentrics) and its positions in the
 // target; `source_boundary` (indices into P) tells boundary points from interior ones.
@@ -106,7 +105,7 @@ RegisterResult register_through_ball(const TetMesh& A, const TetMesh& B, const R
   r.located_BA = compose_through_ball(r.ball_B.f * r.h, r.ball_B.boundary, r.ball_A.f, A, r.map_BA,
                                       r.B_on_A);
   const int nA = A.num_vertices();
-  r.seconds_locate = since(tl);
+  r.seconds_locate = seconds_since(tl);
 
   // d(phi) (Sec. 7).
   const Eigen::VectorXd w = vertex_volumes(A.V, A.T);
@@ -115,7 +114,7 @@ RegisterResult register_through_ball(const TetMesh& A, const TetMesh& B, const R
   r.d_phi = s / w.sum();
   const double diag = bbox_diagonal(A.V);
   r.d_phi_relative = diag > 0 ? r.d_phi / diag : 0;
-  r.seconds_total = since(t0);
+  r.seconds_total = seconds_since(t0);
   return r;
 }
 

@@ -1,6 +1,7 @@
 // Spherical area-preserving map: linear puncture map, conformal energy minimization,
 // stretch energy minimization (see the header and docs/methods.md).
 #include "shapemap/volume/sphere_param.h"
+#include "shapemap/timing.h"
 #include "shapemap/volume/latitude_longitude.h"
 #include "shapemap/error.h"
 #include "shapemap/geometry/sparse_cholesky.h"
@@ -289,65 +290,73 @@ int spherical_folded_faces(const Eigen::MatrixXd& S, const Eigen::MatrixXi& F) {
   return int(F.rows()) - positive_origin_cones(S, F);
 }
 
-SphereParamResult spherical_area_preserving_map(const TriMesh& surface,
-                                                const Eigen::VectorXd& face_weights,
-                                                const SphereParamOptions& opt,
-                                                const ProgressCallback& progress) {
-  const auto t0 = std::chrono::steady_clock::now();
-  const Eigen::MatrixXd& V = surface.V;
-  const Eigen::MatrixXi& F = surface.F;
-  const Eigen::Index n = V.rows(), m = F.rows();
-  if (n < 4 || m < 4 || F.cols() != 3)
-    throw InputError("spherical map: the surface needs at least 4 vertices and 4 faces");
-  if (face_weights.size() != 0 && face_weights.size() != m)
-    throw InputError("spherical map: face_weights must have one entry per face");
-  SphereParamResult res;
+namespace {
 
-  // ---- 1. Linear map: puncture the most regular face (Yueh et al., Sphere.Linear).
-  const Eigen::VectorXd A0 = areas3(V, F);
-  Eigen::Index best = 0;
-  double bestq = -1;
-  for (Eigen::Index f = 0; f < m; ++f) {
-    const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
-    const double l2 = (b - a).squaredNorm() + (c - b).squaredNorm() + (a - c).squaredNorm();
-    const double q = l2 > 0 ? 4 * std::sqrt(3.0) * A0(f) / l2 : 0;  // 1 = equilateral
-    if (q > bestq) {
-      bestq = q;
-      best = f;
+// The spherical area-preserving map of one surface, one method per stage (linear map, CEM,
+// SEM, Riemannian CG on the authalic energy) and the choice among the starts; the surface's
+// areas, cotangent Laplacian and target area shares are shared by all of them.
+struct SphereMapSolver {
+  const TriMesh& surface;
+  const Eigen::MatrixXd& V;
+  const Eigen::MatrixXi& F;
+  const Eigen::Index n, m;
+  const SphereParamOptions& opt;
+  const ProgressCallback& progress;
+  Eigen::VectorXd A0;               // face areas of the surface
+  Eigen::SparseMatrix<double> Lc;   // its cotangent Laplacian
+  Eigen::VectorXd target;           // target area shares (sum 1)
+
+  SphereMapSolver(const TriMesh& s, const SphereParamOptions& o, const ProgressCallback& p)
+      : surface(s), V(s.V), F(s.F), n(s.V.rows()), m(s.F.rows()), opt(o), progress(p) {}
+
+  // Step 1.
+  Stage linear_map() {
+    // ---- 1. Linear map: puncture the most regular face (Yueh et al., Sphere.Linear).
+    A0 = areas3(V, F);
+    Eigen::Index best = 0;
+    double bestq = -1;
+    for (Eigen::Index f = 0; f < m; ++f) {
+      const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
+      const double l2 = (b - a).squaredNorm() + (c - b).squaredNorm() + (a - c).squaredNorm();
+      const double q = l2 > 0 ? 4 * std::sqrt(3.0) * A0(f) / l2 : 0;  // 1 = equilateral
+      if (q > bestq) {
+        bestq = q;
+        best = f;
+      }
     }
+    if (!(bestq > 0)) throw InputError("spherical map: all faces are degenerate");
+    Lc = weighted_cotan(V, F, nullptr);
+    Plane uv = Plane::Zero(n, 2);
+    {
+      const int ia = F(best, 0), ib = F(best, 1), ic = F(best, 2);
+      const Eigen::Vector3d A = V.row(ia), B = V.row(ib), C = V.row(ic);
+      const double alpha = (C - A).dot(B - A) / (B - A).squaredNorm();
+      const Eigen::Vector3d E = A + alpha * (B - A);
+      const double nBA = (B - A).norm(), nCE = (C - E).norm();
+      uv.row(ia) << -1.0 / nBA, (1 - alpha) / nCE;
+      uv.row(ib) << 1.0 / nBA, alpha / nCE;
+      uv.row(ic) << 0.0, -1.0 / nCE;
+      std::vector<char> inner(n, 1);
+      inner[ia] = inner[ib] = inner[ic] = 0;
+      solve_inner(Lc, inner, uv);
+      make_downward(F, uv);
+      uv.rowwise() -= uv.colwise().mean();
+      normalize_median(uv);
+    }
+    Stage cur;
+    cur.uv = uv;
+    cur.S = inverse_stereographic(uv);
+    cur.E = energy_minus_area(Lc, cur.S, F);
+    cur.folded = spherical_folded_faces(cur.S, F);
+    report(progress, "ball/sphere-map", 0.05);
+    return cur;
   }
-  if (!(bestq > 0)) throw InputError("spherical map: all faces are degenerate");
-  const Eigen::SparseMatrix<double> Lc = weighted_cotan(V, F, nullptr);
-  Plane uv = Plane::Zero(n, 2);
-  {
-    const int ia = F(best, 0), ib = F(best, 1), ic = F(best, 2);
-    const Eigen::Vector3d A = V.row(ia), B = V.row(ib), C = V.row(ic);
-    const double alpha = (C - A).dot(B - A) / (B - A).squaredNorm();
-    const Eigen::Vector3d E = A + alpha * (B - A);
-    const double nBA = (B - A).norm(), nCE = (C - E).norm();
-    uv.row(ia) << -1.0 / nBA, (1 - alpha) / nCE;
-    uv.row(ib) << 1.0 / nBA, alpha / nCE;
-    uv.row(ic) << 0.0, -1.0 / nCE;
-    std::vector<char> inner(n, 1);
-    inner[ia] = inner[ib] = inner[ic] = 0;
-    solve_inner(Lc, inner, uv);
-    make_downward(F, uv);
-    uv.rowwise() -= uv.colwise().mean();
-    normalize_median(uv);
-  }
-  Stage cur;
-  cur.uv = uv;
-  cur.S = inverse_stereographic(uv);
-  cur.E = energy_minus_area(Lc, cur.S, F);
-  cur.folded = spherical_folded_faces(cur.S, F);
-  report(progress, "ball/sphere-map", 0.05);
-  const Stage linear_stage = cur;
 
   // One hemisphere-alternation step (CEM and SEM share it). With max_folded >= 0 the step
   // is damped: the solved inner vertices move only a fraction t = 1, 1/2, ..., 1/64 of the
   // way from their inverted positions; the largest t whose image has at most max_folded
   // folded faces is taken (s.folded = -1 when none has).
-  auto step = [&](const Eigen::SparseMatrix<double>& L, double R, const Stage& from, int max_folded) {
+  Stage step(const Eigen::SparseMatrix<double>& L, double R, const Stage& from, int max_folded) const {
     Plane uv0 = from.uv;
     invert(uv0);
     std::vector<char> inner(n, 0);
@@ -366,25 +375,26 @@ SphereParamResult spherical_area_preserving_map(const TriMesh& surface,
     }
     s.folded = -1;
     return s;
-  };
-
-  // ---- 2. Conformal energy minimization (fixed cotangent Laplacian of the surface).
-  for (int it = 0; it < opt.conformal_iterations; ++it) {
-    Stage s = step(Lc, opt.conformal_radius, cur, -1);
-    s.E = energy_minus_area(Lc, s.S, F);
-    if (!(s.E < cur.E) || s.folded > cur.folded) break;
-    const double dE = cur.E - s.E;
-    cur = std::move(s);
-    res.conformal_iterations = it + 1;
-    report(progress, "ball/sphere-map", 0.05 + 0.25 * (it + 1) / opt.conformal_iterations);
-    if (dE < opt.conformal_tolerance) break;
   }
-  res.conformal_energy = cur.E;
 
-  Eigen::VectorXd target = face_weights.size() ? face_weights : A0;
-  target /= target.sum();
-  // Steps 3-4 from a start map (the CEM result or the linear map), into r.
-  auto stretch_and_refine = [&](Stage cur, double fold_allowance, SphereParamResult& r) {
+  // Step 2.
+  void conformal(Stage& cur, SphereParamResult& res) const {
+    // ---- 2. Conformal energy minimization (fixed cotangent Laplacian of the surface).
+    for (int it = 0; it < opt.conformal_iterations; ++it) {
+      Stage s = step(Lc, opt.conformal_radius, cur, -1);
+      s.E = energy_minus_area(Lc, s.S, F);
+      if (!(s.E < cur.E) || s.folded > cur.folded) break;
+      const double dE = cur.E - s.E;
+      cur = std::move(s);
+      res.conformal_iterations = it + 1;
+      report(progress, "ball/sphere-map", 0.05 + 0.25 * (it + 1) / opt.conformal_iterations);
+      if (dE < opt.conformal_tolerance) break;
+    }
+    res.conformal_energy = cur.E;
+  }
+
+  // Step 3 from a start map, into r.S (normalized, untangled).
+  void stretch(Stage cur, double fold_allowance, SphereParamResult& r) const {
     // ---- 3. Stretch energy minimization (Yueh et al. 2019).
     auto stretch_laplacian = [&](const Eigen::MatrixXd& S) {
       Eigen::VectorXd As = areas3(S, F);
@@ -443,91 +453,97 @@ SphereParamResult spherical_area_preserving_map(const TriMesh& surface,
     r.S.rowwise().normalize();
     // SEM may leave a few folded faces on strongly stretched parts: untangle them locally.
     if (cur.folded > 0) untangle_sphere(r.S, F, 200);
+  }
 
-    // ---- 4. Riemannian preconditioned CG on the authalic energy (Sutti & Yueh 2024).
-    {
-      Eigen::MatrixXd& S = r.S;
-      Eigen::MatrixXd G, Gn, H, Hn, D, Sn;
-      double E = authalic_energy(S, F, target, &G);
-      r.authalic_energy_initial = E;
-      int folded = spherical_folded_faces(S, F);
-      // Preconditioner: inverse lumped image vertex areas (the mass matrix of the current
-      // sphere mesh), so a vertex moves in proportion to its local scale; the exponentially
-      // small triangles the conformal stage leaves on thin parts cannot flip in one step.
-      Eigen::VectorXd lump(n);
-      auto precondition = [&](const Eigen::MatrixXd& Sx, const Eigen::MatrixXd& Gx, Eigen::MatrixXd& Hx) {
-        lump.setZero();
-        for (Eigen::Index f = 0; f < m; ++f) {
-          const Eigen::Vector3d p = Sx.row(F(f, 0)), q = Sx.row(F(f, 1)), r = Sx.row(F(f, 2));
-          const double a = (q - p).cross(r - p).norm() / 6.0;
-          for (int c = 0; c < 3; ++c) lump(F(f, c)) += a;
-        }
-        const double floor = 1e-12 * lump.sum();
-        Hx.resize(n, 3);
-        for (Eigen::Index i = 0; i < n; ++i) Hx.row(i) = Gx.row(i) / std::max(lump(i), floor);
-        tangent_project(Sx, Hx);
-      };
-      double mean_edge = 0;
-      for (Eigen::Index f = 0; f < m; ++f) mean_edge += (S.row(F(f, 0)) - S.row(F(f, 1))).norm();
-      mean_edge /= double(m);
-      tangent_project(S, G);
-      precondition(S, G, H);
-      D = -H;
-      double gh = G.cwiseProduct(H).sum();
-      double alpha = -1;
-      for (int it = 0; it < opt.authalic_iterations; ++it) {
-        double slope = G.cwiseProduct(D).sum();
-        if (!(slope < 0)) {
-          D = -H;
-          slope = -gh;
-          if (!(slope < 0)) break;
-        }
-        const double dmax = D.rowwise().norm().maxCoeff();
-        if (!(dmax > 0)) break;
-        if (alpha < 0) alpha = 0.5 * mean_edge / dmax;
-        alpha = std::min(2 * alpha, 0.5 * mean_edge / dmax);  // no vertex moves more than half a mean edge
-        bool ok = false;
-        double En = E;
-        int fn = folded;
-        for (int ls = 0; ls < 40; ++ls) {
-          Sn = S + alpha * D;
-          Sn.rowwise().normalize();  // retraction
-          En = authalic_energy(Sn, F, target, nullptr);
-          if (std::isfinite(En) && En <= E + 1e-4 * alpha * slope) {
-            fn = spherical_folded_faces(Sn, F);
-            if (fn <= folded) {
-              ok = true;
-              break;
-            }
-          }
-          alpha *= 0.5;
-        }
-        if (!ok) {
-          if (D.isApprox(-H)) break;
-          D = -H;  // restart along the preconditioned gradient
-          alpha = -1;
-          continue;
-        }
-        const double rel = (E - En) / std::max(1e-300, std::abs(E));
-        S.swap(Sn);
-        folded = fn;
-        E = authalic_energy(S, F, target, &Gn);
-        tangent_project(S, Gn);
-        precondition(S, Gn, Hn);
-        tangent_project(S, D);    // vector transport by projection
-        tangent_project(S, H);
-        const double ghn = Gn.cwiseProduct(Hn).sum();
-        const double beta = std::max(0.0, (ghn - Gn.cwiseProduct(H).sum()) / gh);  // PR+
-        D = -Hn + beta * D;
-        G.swap(Gn);
-        H.swap(Hn);
-        gh = ghn;
-        r.authalic_iterations = it + 1;
-        if (it % 10 == 0) report(progress, "ball/sphere-map", 1.0);
-        if (rel < opt.authalic_tolerance) break;
+  // Step 4 on r.S.
+  void authalic_cg(SphereParamResult& r) const {
+    Eigen::MatrixXd& S = r.S;
+    Eigen::MatrixXd G, Gn, H, Hn, D, Sn;
+    double E = authalic_energy(S, F, target, &G);
+    r.authalic_energy_initial = E;
+    int folded = spherical_folded_faces(S, F);
+    // Preconditioner: inverse lumped image vertex areas (the mass matrix of the current
+    // sphere mesh), so a vertex moves in proportion to its local scale; the exponentially
+    // small triangles the conformal stage leaves on thin parts cannot flip in one step.
+    Eigen::VectorXd lump(n);
+    auto precondition = [&](const Eigen::MatrixXd& Sx, const Eigen::MatrixXd& Gx, Eigen::MatrixXd& Hx) {
+      lump.setZero();
+      for (Eigen::Index f = 0; f < m; ++f) {
+        const Eigen::Vector3d p = Sx.row(F(f, 0)), q = Sx.row(F(f, 1)), r = Sx.row(F(f, 2));
+        const double a = (q - p).cross(r - p).norm() / 6.0;
+        for (int c = 0; c < 3; ++c) lump(F(f, c)) += a;
       }
-      r.authalic_energy = E;
+      const double floor = 1e-12 * lump.sum();
+      Hx.resize(n, 3);
+      for (Eigen::Index i = 0; i < n; ++i) Hx.row(i) = Gx.row(i) / std::max(lump(i), floor);
+      tangent_project(Sx, Hx);
+    };
+    double mean_edge = 0;
+    for (Eigen::Index f = 0; f < m; ++f) mean_edge += (S.row(F(f, 0)) - S.row(F(f, 1))).norm();
+    mean_edge /= double(m);
+    tangent_project(S, G);
+    precondition(S, G, H);
+    D = -H;
+    double gh = G.cwiseProduct(H).sum();
+    double alpha = -1;
+    for (int it = 0; it < opt.authalic_iterations; ++it) {
+      double slope = G.cwiseProduct(D).sum();
+      if (!(slope < 0)) {
+        D = -H;
+        slope = -gh;
+        if (!(slope < 0)) break;
+      }
+      const double dmax = D.rowwise().norm().maxCoeff();
+      if (!(dmax > 0)) break;
+      if (alpha < 0) alpha = 0.5 * mean_edge / dmax;
+      alpha = std::min(2 * alpha, 0.5 * mean_edge / dmax);  // no vertex moves more than half a mean edge
+      bool ok = false;
+      double En = E;
+      int fn = folded;
+      for (int ls = 0; ls < 40; ++ls) {
+        Sn = S + alpha * D;
+        Sn.rowwise().normalize();  // retraction
+        En = authalic_energy(Sn, F, target, nullptr);
+        if (std::isfinite(En) && En <= E + 1e-4 * alpha * slope) {
+          fn = spherical_folded_faces(Sn, F);
+          if (fn <= folded) {
+            ok = true;
+            break;
+          }
+        }
+        alpha *= 0.5;
+      }
+      if (!ok) {
+        if (D.isApprox(-H)) break;
+        D = -H;  // restart along the preconditioned gradient
+        alpha = -1;
+        continue;
+      }
+      const double rel = (E - En) / std::max(1e-300, std::abs(E));
+      S.swap(Sn);
+      folded = fn;
+      E = authalic_energy(S, F, target, &Gn);
+      tangent_project(S, Gn);
+      precondition(S, Gn, Hn);
+      tangent_project(S, D);    // vector transport by projection
+      tangent_project(S, H);
+      const double ghn = Gn.cwiseProduct(Hn).sum();
+      const double beta = std::max(0.0, (ghn - Gn.cwiseProduct(H).sum()) / gh);  // PR+
+      D = -Hn + beta * D;
+      G.swap(Gn);
+      H.swap(Hn);
+      gh = ghn;
+      r.authalic_iterations = it + 1;
+      if (it % 10 == 0) report(progress, "ball/sphere-map", 1.0);
+      if (rel < opt.authalic_tolerance) break;
     }
+    r.authalic_energy = E;
+  }
+
+  // Steps 3-4 from a start map (the CEM result or the linear map), into r.
+  void stretch_and_refine(const Stage& cur, double fold_allowance, SphereParamResult& r) const {
+    stretch(cur, fold_allowance, r);
+    authalic_cg(r);
     {
       const Eigen::VectorXd As = areas3(r.S, F);
       const double tot = As.sum();
@@ -541,70 +557,96 @@ SphereParamResult spherical_area_preserving_map(const TriMesh& surface,
       r.area_distortion_max = mx;
     }
     r.folded_faces = spherical_folded_faces(r.S, F);
-  };
-  {
-    const int cem_iterations = res.conformal_iterations;
-    const double cem_energy = res.conformal_energy;
-    // Candidates: SEM as published (undamped) and damped (see SphereParamOptions), each
-    // from the CEM result and, when CEM changed the map, from the linear map (the conformal
-    // steps can compress thin parts further). Selection (run_candidate): a result that has
-    // not collapsed a part, then the fewest folded faces, then the lowest E_A; the published
-    // path alone is the first candidate.
-    struct Candidate {
-      const Stage* start;
-      int start_id;
-      double allowance;
-    };
-    std::vector<Candidate> cand = {{&cur, 0, 1.0}};
-    if (opt.stretch_fold_allowance < 1) cand.push_back({&cur, 0, opt.stretch_fold_allowance});
-    if (opt.try_linear_start && cem_iterations > 0) {
-      cand.push_back({&linear_stage, 1, 1.0});
-      if (opt.stretch_fold_allowance < 1) cand.push_back({&linear_stage, 1, opt.stretch_fold_allowance});
-    }
-    // A result with a face more than latitude_start_distortion times off its area share has
-    // collapsed a part (measured: a creature whose linear map put 80% of the vertices on a
-    // thin ring; CEM and SEM stalled at mean distortion 1.9, max 170, with 0 folded faces,
-    // and the ball map failed); it loses to any result that has not, whatever its folds.
-    auto collapsed = [&](const SphereParamResult& r) {
-      return opt.latitude_start_distortion > 0 && r.area_distortion_max > opt.latitude_start_distortion;
-    };
-    // Steps 3-4 from a start; kept when it is the first, or not collapsed when the kept one
-    // is, or equally collapsed with fewer folded faces, then a lower E_A.
-    bool first = true;
-    auto run_candidate = [&](const Stage& start, int start_id, double allowance) {
-      SphereParamResult r;
-      stretch_and_refine(start, allowance, r);
-      r.start_stage = start_id;
-      r.stretch_damped = allowance < 1;
-      const bool c = collapsed(r), c0 = collapsed(res);
-      if (first || c < c0 ||
-          (c == c0 && (r.folded_faces < res.folded_faces ||
-                       (r.folded_faces == res.folded_faces && r.authalic_energy < res.authalic_energy))))
-        res = std::move(r);
-      first = false;
-    };
-    for (const Candidate& c : cand) run_candidate(*c.start, c.start_id, c.allowance);
-    // Latitude-longitude start when the conformal starts collapsed a part (folded or not:
-    // the conformal factor of a long part is exponentially small); the same selection.
-    if (collapsed(res)) {
-      Stage ll;
-      ll.S = latitude_longitude_map(surface, Lc, target).S;
-      if (ll.S.rows() == n) {
-        // Tilt the pole axis off the projection pole (0, 0, 1) of the SEM steps.
-        ll.S = (ll.S * Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix().transpose()).eval();
-        ll.uv = stereographic(ll.S);
-        ll.S = inverse_stereographic(ll.uv);
-        ll.E = energy_minus_area(Lc, ll.S, F);
-        ll.folded = spherical_folded_faces(ll.S, F);
-        run_candidate(ll, 2, 1.0);
-        if (opt.stretch_fold_allowance < 1) run_candidate(ll, 2, opt.stretch_fold_allowance);
-      }
-    }
-    res.conformal_iterations = cem_iterations;
-    res.conformal_energy = cem_energy;
   }
+
+  // The starts tried and the one kept (see below), into res.
+  void best_of_starts(const Stage& cur, const Stage& linear_stage, SphereParamResult& res) const {
+    {
+      const int cem_iterations = res.conformal_iterations;
+      const double cem_energy = res.conformal_energy;
+      // Candidates: SEM as published (undamped) and damped (see SphereParamOptions), each
+      // from the CEM result and, when CEM changed the map, from the linear map (the conformal
+      // steps can compress thin parts further). Selection (run_candidate): a result that has
+      // not collapsed a part, then the fewest folded faces, then the lowest E_A; the published
+      // path alone is the first candidate.
+      struct Candidate {
+        const Stage* start;
+        int start_id;
+        double allowance;
+      };
+      std::vector<Candidate> cand = {{&cur, 0, 1.0}};
+      if (opt.stretch_fold_allowance < 1) cand.push_back({&cur, 0, opt.stretch_fold_allowance});
+      if (opt.try_linear_start && cem_iterations > 0) {
+        cand.push_back({&linear_stage, 1, 1.0});
+        if (opt.stretch_fold_allowance < 1) cand.push_back({&linear_stage, 1, opt.stretch_fold_allowance});
+      }
+      // A result with a face more than latitude_start_distortion times off its area share has
+      // collapsed a part (measured: a creature whose linear map put 80% of the vertices on a
+      // thin ring; CEM and SEM stalled at mean distortion 1.9, max 170, with 0 folded faces,
+      // and the ball map failed); it loses to any result that has not, whatever its folds.
+      auto collapsed = [&](const SphereParamResult& r) {
+        return opt.latitude_start_distortion > 0 && r.area_distortion_max > opt.latitude_start_distortion;
+      };
+      // Steps 3-4 from a start; kept when it is the first, or not collapsed when the kept one
+      // is, or equally collapsed with fewer folded faces, then a lower E_A.
+      bool first = true;
+      auto run_candidate = [&](const Stage& start, int start_id, double allowance) {
+        SphereParamResult r;
+        stretch_and_refine(start, allowance, r);
+        r.start_stage = start_id;
+        r.stretch_damped = allowance < 1;
+        const bool c = collapsed(r), c0 = collapsed(res);
+        if (first || c < c0 ||
+            (c == c0 && (r.folded_faces < res.folded_faces ||
+                         (r.folded_faces == res.folded_faces && r.authalic_energy < res.authalic_energy))))
+          res = std::move(r);
+        first = false;
+      };
+      for (const Candidate& c : cand) run_candidate(*c.start, c.start_id, c.allowance);
+      // Latitude-longitude start when the conformal starts collapsed a part (folded or not:
+      // the conformal factor of a long part is exponentially small); the same selection.
+      if (collapsed(res)) {
+        Stage ll;
+        ll.S = latitude_longitude_map(surface, Lc, target).S;
+        if (ll.S.rows() == n) {
+          // Tilt the pole axis off the projection pole (0, 0, 1) of the SEM steps.
+          ll.S = (ll.S * Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix().transpose()).eval();
+          ll.uv = stereographic(ll.S);
+          ll.S = inverse_stereographic(ll.uv);
+          ll.E = energy_minus_area(Lc, ll.S, F);
+          ll.folded = spherical_folded_faces(ll.S, F);
+          run_candidate(ll, 2, 1.0);
+          if (opt.stretch_fold_allowance < 1) run_candidate(ll, 2, opt.stretch_fold_allowance);
+        }
+      }
+      res.conformal_iterations = cem_iterations;
+      res.conformal_energy = cem_energy;
+    }
+  }
+};
+
+}  // namespace
+
+SphereParamResult spherical_area_preserving_map(const TriMesh& surface,
+                                                const Eigen::VectorXd& face_weights,
+                                                const SphereParamOptions& opt,
+                                                const ProgressCallback& progress) {
+  const auto t0 = Clock::now();
+  const Eigen::Index n = surface.V.rows(), m = surface.F.rows();
+  if (n < 4 || m < 4 || surface.F.cols() != 3)
+    throw InputError("spherical map: the surface needs at least 4 vertices and 4 faces");
+  if (face_weights.size() != 0 && face_weights.size() != m)
+    throw InputError("spherical map: face_weights must have one entry per face");
+  SphereParamResult res;
+  SphereMapSolver solver(surface, opt, progress);
+  const Stage linear_stage = solver.linear_map();
+  Stage cur = linear_stage;
+  solver.conformal(cur, res);
+  solver.target = face_weights.size() ? face_weights : solver.A0;
+  solver.target /= solver.target.sum();
+  solver.best_of_starts(cur, linear_stage, res);
   report(progress, "ball/sphere-map", 1.0);
-  res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  res.seconds = seconds_since(t0);
   return res;
 }
 

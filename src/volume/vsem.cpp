@@ -1,6 +1,8 @@
 // Isovolumetric / volumetric stretch energies, L_V(f), AST and the VSEM fixed point
 // (isovolumetric-ball-parameterization.txt, Eqs. 2, 3, 8-13, Algorithm 1 steps 1-13).
 #include "shapemap/volume/vsem.h"
+#include "shapemap/timing.h"
+#include "shapemap/geometry/tet_volume.h"
 #include "shapemap/error.h"
 #include "shapemap/geometry/laplacian.h"
 #include "shapemap/geometry/sparse_cholesky.h"
@@ -118,8 +120,7 @@ void IsovolumetricEnergy::image_volumes(const Eigen::MatrixXd& f, Eigen::VectorX
 #pragma omp parallel for schedule(static) if (m > kParallelMin)
   for (Eigen::Index t = 0; t < m; ++t) {
     const Eigen::Vector3d x0 = row3(f, T_(t, 0));
-    vol_f(t) = (row3(f, T_(t, 1)) - x0).dot((row3(f, T_(t, 2)) - x0).cross(row3(f, T_(t, 3)) - x0)) /
-               6.0;
+    vol_f(t) = signed_tet_volume(x0, row3(f, T_(t, 1)), row3(f, T_(t, 2)), row3(f, T_(t, 3)));
   }
 }
 
@@ -314,7 +315,7 @@ Eigen::MatrixXi renumber_tets(const Eigen::MatrixXi& T, const Eigen::VectorXi& p
 VsemResult vsem_fixed_point(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T,
                             const Eigen::VectorXi& boundary, const Eigen::MatrixXd& fB,
                             const VsemOptions& opt, const ProgressCallback& progress) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   const int n = int(V.rows());
   if (fB.rows() != boundary.size() || fB.cols() != 3)
     throw InputError("vsem_fixed_point: fB must be nB×3 matching the boundary indices");
@@ -375,7 +376,7 @@ VsemResult vsem_fixed_point(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T,
   const Eigen::MatrixXd& fr = opt.keep_best ? best : f;
   res.f.resize(n, 3);
   for (int i = 0; i < n; ++i) res.f.row(i) = fr.row(perm(i));
-  res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  res.seconds = seconds_since(t0);
   return res;
 }
 

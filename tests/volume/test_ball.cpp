@@ -248,7 +248,10 @@ TEST(BallParam, PaperVariantWithoutPoleHandlingStillRuns) {
   const BallParamResult r = ball_parameterization(m, o);
   const BallMetrics b = ball_metrics(m, r.f);
   EXPECT_LE(b.boundary_sphere_error, 1e-9);
-  EXPECT_LE(r.energy_final, r.energy_vsem);
+  // CG in the paper's fixed frame still does its job: E_I well below the VSEM start (CG
+  // never raises E_I, so only a real decrease is worth asserting), no folded tet.
+  EXPECT_LT(r.energy_final, 0.5 * r.energy_vsem);
+  EXPECT_EQ(b.folded_tets, 0);
 }
 
 TEST(BallParam, PoleGuardDoesNotDependOnThePhiPreconditionerBlock) {
@@ -293,15 +296,7 @@ TEST(BallMetricsTest, DistortionFoldsAndSphereError) {
   const BallMetrics r = ball_metrics(m, mir);
   EXPECT_EQ(r.negative_tets, m.num_tets());
   EXPECT_EQ(r.folded_tets, 0);
-  // One vertex moved: D_V from its definition (Eq. 45).
-  Eigen::MatrixXd f = m.V;
-  f(0, 0) += 0.05;
-  const Eigen::VectorXd D = ball_volume_distortion(m.V, m.T, f);
-  const Eigen::VectorXd ve = tet_volumes(m.V, m.T), vf = tet_volumes(f, m.T);
-  for (int t = 0; t < D.size(); ++t) {
-    const double a = ve(t) / ve.sum();
-    EXPECT_NEAR(D(t), std::abs((vf(t) / vf.sum() - a) / a), 1e-12);
-  }
+  // D_V against closed-form values: tests/eval/test_metrics_closed_form.cpp.
   // Boundary vertices of the cube-sphere blob with radii ~1 are off the sphere.
   EXPECT_GT(s.boundary_sphere_error, 0.1);
   // Flipped boundary faces: none for the blob (star-shaped about the origin) and its mirror

@@ -77,6 +77,12 @@ class ShellEnergy {
   const Eigen::MatrixXi& interior_edges() const { return E_; }
 
  private:
+  // evaluate()'s two passes over face f at configuration y (3n values). Pass 1: normal,
+  // degeneracy, membrane energy and its gradient w.r.t. the edge vectors (Eq. 7). Pass 2:
+  // the bending terms (Eq. 9) of f's interior edges from the stored normals, and f's 9
+  // corner gradients (corner-major) into out when want_grad.
+  void membrane_face(int f, const double* y, bool want_grad) const;
+  void bending_face(int f, const double* y, bool want_grad, bool do_bend, double* out) const;
   ShellEnergyOptions opt_;
   int n_ = 0;
   Eigen::MatrixXi F_;

@@ -86,8 +86,9 @@ struct BallParamOptions {
   int preconditioner_refresh = 0;   // re-factor M = blockdiag(L_II, L_BB) of L_V(f^(k)) every
                                     // this many iterations and restart CG (0: the paper's
                                     // M of L_V(f^(0)) throughout)
-  int untangle_rounds = 100;        // post-step: local untangling of folded tets with the
-                                    // boundary fixed, at most this many rounds (0: off)
+  int untangle_rounds = 100;        // post-step: local untangling of folded tets (boundary
+                                    // vertices move on the sphere, untangle.h), at most this
+                                    // many rounds (0: off)
   int polish_iterations = 100;      // post-step: CG iterations per penalty round and for the
                                     // final fold-guarded polishing
   int penalty_rounds = 6;           // post-step: rounds of CG on E_I + fold penalty, weight
