@@ -119,3 +119,28 @@ def test_tetrahedralize(surfaces):
     (VA, FA), _ = surfaces
     V, T = shapemap.tetrahedralize(VA, FA, tets=800)
     assert T.shape[1] == 4 and 200 < len(T) < 4000
+
+
+def _boundary_vertices(T):
+    faces = np.sort(np.concatenate([T[:, [0, 1, 2]], T[:, [0, 1, 3]], T[:, [0, 2, 3]], T[:, [1, 2, 3]]]), axis=1)
+    u, c = np.unique(faces, axis=0, return_counts=True)
+    return np.unique(u[c == 1])
+
+
+def test_cli_and_module_same_volume_map(cli, pair, tmp_path):
+    VA, TA = shapemap.read_volume(pair / "A.vtk")
+    VB, TB = shapemap.read_volume(pair / "B.vtk")
+    # Landmarks: 8 boundary vertices of A and the boundary vertices of B nearest their true images.
+    bA, bB = _boundary_vertices(TA), _boundary_vertices(TB)
+    LA = bA[:: len(bA) // 8][:8]
+    P = shapemap.read_map(pair / "truth_vol_AB.txt", VB, TB).points()[LA]
+    LB = bB[((P[:, None, :] - VB[bB][None, :, :]) ** 2).sum(axis=2).argmin(axis=1)]
+    np.savetxt(tmp_path / "LA.txt", LA, fmt="%d")
+    np.savetxt(tmp_path / "LB.txt", LB, fmt="%d")
+    cli("--seed", 1, "volume-map", pair / "A.vtk", pair / "B.vtk", "--landmarks", tmp_path / "LA.txt",
+        tmp_path / "LB.txt", "--max-iterations", 3, "-o", tmp_path / "out")
+    m = shapemap.volume_map(VA, TA, VB, TB, init="landmarks", landmarks=(LA, LB), max_iterations=3, seed=1)
+    shapemap.write_map(tmp_path / "py_AB.txt", m)
+    shapemap.write_map(tmp_path / "py_BA.txt", m.reverse)
+    for d in ("AB", "BA"):
+        assert (tmp_path / "out" / f"map_{d}.txt").read_text() == (tmp_path / f"py_{d}.txt").read_text(), d
