@@ -55,6 +55,8 @@ t1=$(run_batch 1)
 t2=$(run_batch 2)
 prep1=$(/usr/bin/python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['preparations'])" "$work/batch1/summary.json")
 prep2=$(/usr/bin/python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['preparations'])" "$work/batch2/summary.json")
+bim1=$(/usr/bin/python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['bim_preparations'])" "$work/batch1/summary.json")
+bim2=$(/usr/bin/python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['bim_preparations'])" "$work/batch2/summary.json")
 
 # The pairs' own time inside the tasks (the map computed through the module, files written).
 tasks1=$(/usr/bin/python3 -c "import csv,sys; print(sum(float(r['seconds']) for r in csv.DictReader(open(sys.argv[1]))))" "$work/batch1/summary.csv")
@@ -64,8 +66,8 @@ overhead=$(calc "($t1 - $t_direct) / $t_direct * 100")
 pf() { /usr/bin/python3 -c "print('PASS' if ($1) else 'FAIL')"; }
 printf 'bench/batch.sh: 6 shapes of %d vertices, 15 pairs, BIM, %s\n' "$vertices" "$(date -u +%FT%TZ)"
 printf '  direct (15 x shapemap surface-map, 1 thread): %.1f s\n' "$t_direct"
-printf '  batch, 1 worker:  %.1f s   preparations %s (6 shapes)\n' "$t1" "$prep1"
-printf '  batch, 2 workers: %.1f s   preparations %s (6 shapes)\n' "$t2" "$prep2"
+printf '  batch, 1 worker:  %.1f s   preparations %s, BIM preparations %s (6 shapes)\n' "$t1" "$prep1" "$bim1"
+printf '  batch, 2 workers: %.1f s   preparations %s, BIM preparations %s (6 shapes, <= 2 per shape)\n' "$t2" "$prep2" "$bim2"
 printf '  each shape prepared once:          %s\n' "$(pf "$prep1 == 6 and $prep2 == 6")"
 printf '  2 workers vs 1: %.2fx (>= 1.7x):    %s\n' "$speedup" "$(pf "$speedup >= 1.7")"
 printf '  sum of the pair tasks (1 worker): %.1f s\n' "$tasks1"

@@ -120,6 +120,9 @@ py::dict surface_map(const RowMatrixXd& VA, const RowMatrixXi& FA, const RowMatr
   }
   if (!o["init"].is_none()) req.init_AB = to_map(o["init"].cast<std::pair<Eigen::VectorXi, RowMatrixXd>>());
   if (!o["init_reverse"].is_none()) req.init_BA = to_map(o["init_reverse"].cast<std::pair<Eigen::VectorXi, RowMatrixXd>>());
+  if (!o["prepared"].is_none())
+    std::tie(req.prepared_A, req.prepared_B) =
+        o["prepared"].cast<std::pair<std::shared_ptr<PreparedSurface>, std::shared_ptr<PreparedSurface>>>();
   if (!o["truth"].is_none()) req.truth_AB = to_map(o["truth"].cast<std::pair<Eigen::VectorXi, RowMatrixXd>>());
   ElasticSettings& e = req.elastic;
   e.preset = o["elastic_preset"].cast<std::string>();
@@ -308,6 +311,22 @@ void bind_evaluate(py::module_& m) {
   });
 }
 
+void bind_prepare(py::module_& m) {
+  py::class_<PreparedSurface, std::shared_ptr<PreparedSurface>>(m, "PreparedSurface")
+      .def_property_readonly("num_vertices", [](const PreparedSurface& p) { return p.repair.mesh.num_vertices(); })
+      .def_property_readonly("notes", [](const PreparedSurface& p) { return p.repair.notes; });
+  m.def("prepare_surface", [](const RowMatrixXd& V, const RowMatrixXi& F, const std::string& name, std::uint64_t seed,
+                              int features, int samples, bool strict, py::object progress) {
+    BIMOptions o;
+    o.seed = seed;
+    o.max_features = features;
+    o.num_even = samples;
+    const TriMesh mesh = tri_mesh(V, F, name.c_str());
+    PyProgress p{progress};
+    return without_gil(p, [&](const ProgressCallback& cb) { return prepare_surface(mesh, name, o, strict, cb); });
+  });
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_shapemap, m) {
@@ -317,6 +336,7 @@ PYBIND11_MODULE(_shapemap, m) {
   py::register_exception<Error>(m, "Error", PyExc_RuntimeError);
   bind_io(m);
   bind_evaluate(m);
+  bind_prepare(m);
   m.def("surface_map", &surface_map);
   m.def("volume_map", &volume_map);
   m.def("ball", &ball);

@@ -24,7 +24,7 @@ InputError = _shapemap.InputError
 Error = _shapemap.Error
 
 __all__ = ["Map", "read_surface", "read_volume", "write_surface", "write_volume", "read_map", "write_map", "tetrahedralize",
-           "surface_map", "volume_map", "ball", "register", "evaluate_surface", "evaluate_volume",
+           "prepare_surface", "surface_map", "volume_map", "ball", "register", "evaluate_surface", "evaluate_volume",
            "evaluate_ball", "InputError", "Error", "__version__"]
 
 
@@ -146,17 +146,26 @@ def _pair(a, b, target_A, target_B, report):
     return m
 
 
+def prepare_surface(V, F, seed=1, features=10, samples=256, strict=False, name="A", progress=None):
+    """A surface repaired, checked and prepared for BIM once (geodesics, sampling, features,
+    flattening), for many surface_map(..., prepared=(pA, pB)) calls without landmarks.
+    The options must be those of the surface_map calls (else it is not used)."""
+    return _shapemap.prepare_surface(_v(V), _e(F), str(name), int(seed), int(features), int(samples),
+                                     bool(strict), progress)
+
+
 def surface_map(VA, FA, VB, FB, method="bim", landmarks=None, init=None, init_reverse=None, symmetric=False,
                 seed=1, threads=0, features=10, candidates=10000, samples=256, reverse_candidates=False,
                 truth=None, strict=False, elastic_preset="auto", elastic_eta=-1.0, elastic_alpha=20.0,
                 elastic_iterations=300, elastic_injective=False, elastic_partial=False,
-                elastic_keep_worse=False, names=("A", "B"), progress=None):
+                elastic_keep_worse=False, names=("A", "B"), prepared=None, progress=None):
     """Map between two closed genus-0 surfaces (`shapemap surface-map`).
 
     method: "bim" (Blended Intrinsic Maps) or "elastic" (refinement of BIM, of landmarks, or
     of `init`). landmarks: (LA, LB) vertex index lists; names: A's and B's in error
     messages. Returns a Map A -> B (with .reverse B -> A for symmetric=True and for the
-    elastic bijective model).
+    elastic bijective model). prepared: (prepare_surface(A), prepare_surface(B)), for BIM
+    without landmarks: the per-surface stage is not done again (the same map).
     """
     if method not in ("bim", "elastic"):
         raise ValueError(f"method {method!r}: expected 'bim' or 'elastic'")
@@ -169,7 +178,8 @@ def surface_map(VA, FA, VB, FB, method="bim", landmarks=None, init=None, init_re
                 elastic_eta=float(elastic_eta), elastic_alpha=float(elastic_alpha),
                 elastic_iterations=int(elastic_iterations), elastic_injective=bool(elastic_injective),
                 elastic_partial=bool(elastic_partial), elastic_keep_worse=bool(elastic_keep_worse),
-                threads=int(threads), names=(str(names[0]), str(names[1])))
+                threads=int(threads), names=(str(names[0]), str(names[1])),
+                prepared=None if prepared is None else tuple(prepared))
     VA, FA, VB, FB = _v(VA), _e(FA), _v(VB), _e(FB)
     r = _shapemap.surface_map(VA, FA, VB, FB, opts, progress)
     return _pair(r["AB"], r["BA"], (VA, FA), (VB, FB), json.loads(r["report"]))

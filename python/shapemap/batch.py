@@ -11,7 +11,8 @@ dask-worker on any machines that see DIR and the shapes at the same paths).
 
 Per-shape work is done once per shape, as its own task, and cached in DIR/shapes/<name>/
 (reading and checks; for volume and register the tetrahedralization of surface inputs), so
-a rerun reuses it. Each pair is a task writing DIR/<A>__<B>/ (map_AB.txt [map_BA.txt],
+a rerun reuses it. BIM's per-surface stage (without landmarks) is kept in memory by each
+worker process: at most once per shape and worker. Each pair is a task writing DIR/<A>__<B>/ (map_AB.txt [map_BA.txt],
 A_on_B.<obj|vtk> [B_on_A], report.json; volume/register: A.vtk, B.vtk, the meshes the maps
 index) under a temporary name, renamed when complete. A rerun skips pairs whose folder is
 complete. A failing pair is recorded with its error and the others go on. DIR/summary.csv
@@ -100,7 +101,21 @@ def _landmarks(d, a, b):
     return (np.loadtxt(fa, dtype=int, ndmin=1).tolist(), np.loadtxt(fb, dtype=int, ndmin=1).tolist())
 
 
-def _compute(job, prepA, prepB):
+# BIM's per-surface stage, kept in each worker process for the pairs it runs (a prepared
+# surface is not picklable: every worker prepares a shape at most once).
+_BIM_PREPARED = {}
+
+
+def _bim_prepared(path, name, V, F, seed, made):
+    import shapemap
+    key = (path, seed)
+    if key not in _BIM_PREPARED:
+        _BIM_PREPARED[key] = shapemap.prepare_surface(V, F, seed=seed, name=path)
+        made.append(name)
+    return _BIM_PREPARED[key]
+
+
+def _compute(job, prepA, prepB, made):
     """The map of one pair; returns (map, meshes A and B, element kind)."""
     import shapemap
     a, b, o = job["A"], job["B"], job["options"]
@@ -111,7 +126,11 @@ def _compute(job, prepA, prepB):
         tf = os.path.join(o["truth_dir"], f"{a}__{b}.txt") if o["truth_dir"] else None
         if tf and os.path.exists(tf):
             truth = shapemap.read_map(tf)
-        m = shapemap.surface_map(VA, FA, VB, FB, method=o["method"], landmarks=lm, truth=truth,
+        prepared = None
+        if o["method"] == "bim" and not lm:
+            prepared = (_bim_prepared(job["pathA"], a, VA, FA, o["seed"], made),
+                        _bim_prepared(job["pathB"], b, VB, FB, o["seed"], made))
+        m = shapemap.surface_map(VA, FA, VB, FB, method=o["method"], landmarks=lm, truth=truth, prepared=prepared,
                                  symmetric=o["symmetric"], seed=o["seed"], threads=o["threads"],
                                  names=(job["pathA"], job["pathB"]))
         return m, (VA, FA), (VB, FB), "surface"
@@ -145,11 +164,12 @@ def run_pair(job, prepA, prepB):
     t0 = time.perf_counter()
     out = job["out"]
     tmp = f"{out}.tmp-{os.getpid()}"
+    made = []  # shapes whose BIM stage this task prepared
     try:
         for p, name in ((prepA, job["A"]), (prepB, job["B"])):
             if p["status"] != "ok":
                 raise ValueError(p["error"] or f"{name}: preparation failed")
-        m, A, B, kind = _compute(job, prepA, prepB)
+        m, A, B, kind = _compute(job, prepA, prepB, made)
         report = dict(m.report)
         report["batch"] = {"A": job["pathA"], "B": job["pathB"], "method": job["options"]["method"],
                            "seconds": time.perf_counter() - t0}
@@ -158,12 +178,12 @@ def run_pair(job, prepA, prepB):
         _write_pair(tmp, m, A, B, kind, report)
         os.replace(tmp, out)
         return {"pair": job["pair"], "status": "ok", "seconds": time.perf_counter() - t0, "error": "",
-                "metrics": summary_metrics(report)}
+                "metrics": summary_metrics(report), "bim_prepared": made}
     except (ValueError, RuntimeError, OSError, MemoryError) as e:
         shutil.rmtree(tmp, ignore_errors=True)
         msg = " ".join(str(e).split())
         return {"pair": job["pair"], "status": "failed", "seconds": time.perf_counter() - t0, "error": msg,
-                "metrics": {}}
+                "metrics": {}, "bim_prepared": made}
 
 
 def summary_metrics(report):
@@ -322,6 +342,8 @@ def write_summary(out, a, results, preps, seconds):
     totals = {"method": a.method, "pairs": len(results), **counts, "seconds": seconds,
               "preparations": sum(1 for p in preps.values() if p.get("prepared")),
               "preparations_reused": sum(1 for p in preps.values() if not p.get("prepared")),
+              # BIM's per-surface stage: once per shape and worker process (kept in memory)
+              "bim_preparations": sum(len(r.get("bim_prepared", [])) for r in results),
               "shapes": {n: {k: p[k] for k in ("status", "error", "seconds", "prepared")} for n, p in preps.items()}}
     with open(os.path.join(out, "summary.json"), "w") as f:
         json.dump(totals, f, indent=1)
@@ -345,7 +367,8 @@ def write_html(out, a, results, keys, t):
             f"</head><body><h1>shapemap batch: {html.escape(a.method)}</h1>"
             f"<p>{t['pairs']} pairs: {t['ok']} ok, {t['failed']} failed, {t['skipped']} skipped; "
             f"{t['seconds']:.1f} s; {t['preparations']} shape preparations "
-            f"({t['preparations_reused']} reused from an earlier run)</p>"
+            f"({t['preparations_reused']} reused from an earlier run); "
+            f"{t['bim_preparations']} BIM per-surface preparations</p>"
             f"<table><tr>{head}</tr>{''.join(rows)}</table></body></html>\n")
     with open(os.path.join(out, "summary.html"), "w") as f:
         f.write(text)
@@ -373,7 +396,8 @@ def main(argv=None):
     t = write_summary(out, a, results, preps, time.perf_counter() - t0)
     if not a.quiet:
         print(f"batch: {t['pairs']} pairs, {t['ok']} ok, {t['failed']} failed, {t['skipped']} skipped; "
-              f"{t['preparations']} shape preparations; {t['seconds']:.1f} s -> {out}/summary.html",
+              f"{t['preparations']} shape preparations, {t['bim_preparations']} BIM preparations; "
+              f"{t['seconds']:.1f} s -> {out}/summary.html",
               file=sys.stderr)
     return 1 if t["failed"] else 0
 

@@ -7,6 +7,7 @@
 #include "shapemap/geometry/closest_point.h"
 #include "shapemap/surface/elastic.h"
 #include <algorithm>
+#include <chrono>
 
 namespace shapemap {
 
@@ -72,8 +73,8 @@ void prepare(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& req, S
              BarycentricMap& truth) {
   SurfaceRepairOptions ro;
   ro.strict = req.strict;
-  run.repair_A = repair_surface(A, req.bim.name_A, ro);
-  run.repair_B = repair_surface(B, req.bim.name_B, ro);
+  run.repair_A = req.prepared_A ? req.prepared_A->repair : repair_surface(A, req.bim.name_A, ro);
+  run.repair_B = req.prepared_B ? req.prepared_B->repair : repair_surface(B, req.bim.name_B, ro);
   for (const auto* r : {&run.repair_A, &run.repair_B}) run.notes.insert(run.notes.end(), r->notes.begin(), r->notes.end());
   check_input(run.repair_A.mesh, req.bim.name_A, req.bim.min_vertices, run.notes);
   check_input(run.repair_B.mesh, req.bim.name_B, req.bim.min_vertices, run.notes);
@@ -122,6 +123,31 @@ nlohmann::json direction_json(const BIMDirectionResult& r) {
   return j;
 }
 
+// blended_intrinsic_maps() on prepared surfaces (no landmarks, no reverse_candidates).
+BIMResult bim_prepared(const BIMSurface& sa, const BIMSurface& sb, const BIMOptions& opt,
+                       const ProgressCallback& progress) {
+  const auto t0 = std::chrono::steady_clock::now();
+  BIMResult out;
+  for (auto& t : sa.timings) out.timings.push_back({"A/" + t.first, 0.0});  // done before, once
+  for (auto& t : sb.timings) out.timings.push_back({"B/" + t.first, 0.0});
+  out.features_A = sa.features;
+  out.features_B = sb.features;
+  out.num_even = int(sa.even.size());
+  out.AB = bim_map(sa, sb, opt, progress);
+  for (auto& t : out.AB.timings) out.timings.push_back({"AB/" + t.first, t.second});
+  if (opt.symmetric) {
+    out.BA = bim_map(sb, sa, opt, progress);
+    for (auto& t : out.BA.timings) out.timings.push_back({"BA/" + t.first, t.second});
+  }
+  out.total_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return out;
+}
+
+bool prepared_fits(const PreparedSurface* p, const BIMOptions& o) {
+  return p && p->bim && p->options.seed == o.seed && p->options.max_features == o.max_features &&
+         p->options.num_even == o.num_even && p->options.min_vertices == o.min_vertices;
+}
+
 void run_bim(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& req, const BarycentricMap* truth,
              const ProgressCallback& progress, SurfaceMapRun& run) {
   BIMOptions o = req.bim;
@@ -131,7 +157,10 @@ void run_bim(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& req, c
   if (!o.landmarks_A.empty() && o.landmarks_A.size() < 3)
     throw InputError(o.name_A + ": at least 3 landmarks are needed");
   const TriMesh &RA = run.repair_A.mesh, &RB = run.repair_B.mesh;
-  BIMResult r = blended_intrinsic_maps(RA, RB, o, progress);
+  const bool prepared = o.landmarks_A.empty() && !o.reverse_candidates &&
+                        prepared_fits(req.prepared_A.get(), o) && prepared_fits(req.prepared_B.get(), o);
+  BIMResult r = prepared ? bim_prepared(*req.prepared_A->bim, *req.prepared_B->bim, o, progress)
+                         : blended_intrinsic_maps(RA, RB, o, progress);
   run.AB_repaired = r.AB.map;
   if (req.symmetric) run.BA_repaired = r.BA.map;
   nlohmann::json& j = run.report;
@@ -428,6 +457,22 @@ void run_elastic(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& re
 }
 
 }  // namespace
+
+std::shared_ptr<PreparedSurface> prepare_surface(const TriMesh& mesh, const std::string& name,
+                                                 const BIMOptions& opt, bool strict,
+                                                 const ProgressCallback& progress) {
+  auto p = std::make_shared<PreparedSurface>();
+  SurfaceRepairOptions ro;
+  ro.strict = strict;
+  p->repair = repair_surface(mesh, name, ro);
+  std::vector<std::string> notes;
+  check_input(p->repair.mesh, name, opt.min_vertices, notes);
+  p->options = opt;
+  p->options.landmarks_A.clear();
+  p->options.landmarks_B.clear();
+  p->bim = std::make_shared<const BIMSurface>(bim_prepare(p->repair.mesh, name, p->options, {}, progress));
+  return p;
+}
 
 SurfaceMapRun run_surface_map(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& req,
                               const ProgressCallback& progress) {

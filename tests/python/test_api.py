@@ -144,3 +144,13 @@ def test_cli_and_module_same_volume_map(cli, pair, tmp_path):
     shapemap.write_map(tmp_path / "py_BA.txt", m.reverse)
     for d in ("AB", "BA"):
         assert (tmp_path / "out" / f"map_{d}.txt").read_text() == (tmp_path / f"py_{d}.txt").read_text(), d
+
+
+def test_prepared_surfaces_give_the_same_map(surfaces, bim):
+    (VA, FA), (VB, FB) = surfaces
+    pA = shapemap.prepare_surface(VA, FA, name="A")
+    pB = shapemap.prepare_surface(VB, FB, name="B")
+    m = shapemap.surface_map(VA, FA, VB, FB, symmetric=True, prepared=(pA, pB))
+    assert np.array_equal(m.element, bim.element) and np.array_equal(m.bary, bim.bary)
+    assert np.array_equal(m.reverse.element, bim.reverse.element) and np.array_equal(m.reverse.bary, bim.reverse.bary)
+    assert m.report["bim"]["stages"]["A/sampling_geodesics"] == 0  # not done again

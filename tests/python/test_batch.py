@@ -39,6 +39,7 @@ def test_batch_rerun_and_failures(cli, shapes, tmp_path):
     assert float(got["s0__s1"]["conformal_distortion_mean"]) >= 0
     summary = json.loads((out / "summary.json").read_text())
     assert summary["preparations"] == 3  # once per shape, not once per pair
+    assert 3 <= summary["bim_preparations"] <= 6  # BIM's stage: once per shape and worker
     assert (out / "summary.html").exists()
 
     # A rerun skips the finished pairs (no cluster, no preparation).

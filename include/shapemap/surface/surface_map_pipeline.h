@@ -10,6 +10,7 @@
 #include "shapemap/repair.h"
 #include "shapemap/surface/bim.h"
 #include <nlohmann/json.hpp>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -35,6 +36,20 @@ struct ElasticSettings {
   double ramp_inner_f_tol = -1;   // ElasticOptions::inner_f_tol_ramp (default 0 = inner_f_tol)
 };
 
+// A surface after its input repairs, with BIM's per-surface stage (bim_prepare: geodesics,
+// sampling, features, flattening) done once, for every BIM map from or to it (batches).
+struct PreparedSurface {
+  SurfaceRepair repair;
+  std::shared_ptr<const BIMSurface> bim;
+  BIMOptions options;  // the options it was prepared with (seed, max_features, num_even, ...)
+};
+
+// Repairs (strict: refuses instead), checks and prepares `mesh` for BIM with `opt`
+// (landmarks are not used: a prepared surface serves maps without landmarks).
+std::shared_ptr<PreparedSurface> prepare_surface(const TriMesh& mesh, const std::string& name,
+                                                 const BIMOptions& opt, bool strict,
+                                                 const ProgressCallback& progress = {});
+
 struct SurfaceMapRequest {
   std::string method = "bim";   // "bim" (Blended Intrinsic Maps) or "elastic"
   bool symmetric = false;       // BIM: also B -> A (elastic's bijective model always has it)
@@ -46,6 +61,10 @@ struct SurfaceMapRequest {
   BarycentricMap init_AB, init_BA;
   std::string init_description;  // report.json "init" for given maps ("file map_AB.txt")
   BarycentricMap truth_AB;       // optional ground truth A -> B (geodesic error in the metrics)
+  // BIM without landmarks and without reverse_candidates: prepared surfaces of A and B (made
+  // with the same seed, max_features, num_even and min_vertices as `bim`) are used instead of
+  // repairing and preparing again; the map is the same.
+  std::shared_ptr<const PreparedSurface> prepared_A, prepared_B;
 };
 
 struct SurfaceMapRun {
