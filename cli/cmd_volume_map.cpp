@@ -216,10 +216,18 @@ void add_volume_map_options(CLI::App* app, VolumeMapArgs& a) {
       ->capture_default_str();
   app->add_option("--tets", a.tets, "Target tet count when tetrahedralizing surfaces (0: default)")
       ->check(in_range(0, kMaxTets));
-  app->add_option("--alpha", a.opt.alpha, "Eq. 25 rigidity weight alpha")->check(non_negative())->capture_default_str();
-  app->add_option("--gamma", a.opt.gamma, "Eq. 25 projection weight gamma")->check(non_negative())->capture_default_str();
-  app->add_option("--beta-start", a.opt.beta_start, "Eq. 25 beta at the first iteration")->check(non_negative())->capture_default_str();
-  app->add_option("--beta-end", a.opt.beta_end, "Eq. 25 beta after the ramp")->check(non_negative())->capture_default_str();
+  app->add_option("--alpha", a.opt.alpha, "Eq. 25 rigidity weight alpha")
+      ->check(non_negative())
+      ->capture_default_str();
+  app->add_option("--gamma", a.opt.gamma, "Eq. 25 projection weight gamma")
+      ->check(non_negative())
+      ->capture_default_str();
+  app->add_option("--beta-start", a.opt.beta_start, "Eq. 25 beta at the first iteration")
+      ->check(non_negative())
+      ->capture_default_str();
+  app->add_option("--beta-end", a.opt.beta_end, "Eq. 25 beta after the ramp")
+      ->check(non_negative())
+      ->capture_default_str();
   app->add_option("--beta-ramp-iterations", a.opt.beta_ramp_iterations,
                     "Sec. 4.4: outer iterations over which beta (and gamma, with --gamma-start) ramp")
       ->check(non_negative())

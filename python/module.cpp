@@ -32,6 +32,7 @@ namespace {
 
 using RowMatrixXd = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 using RowMatrixXi = Eigen::Matrix<int, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+using PyMap = std::pair<Eigen::VectorXi, RowMatrixXd>;  // (element, bary) from Python
 
 // Thrown from the progress callback after Ctrl-C; the library unwinds (RAII) and the
 // binding raises KeyboardInterrupt once it holds the GIL again.
@@ -96,7 +97,7 @@ TetMesh tet_mesh(const RowMatrixXd& V, const RowMatrixXi& T, const char* what) {
   return m;
 }
 
-BarycentricMap to_map(const std::pair<Eigen::VectorXi, RowMatrixXd>& m) { return {m.first, m.second}; }
+BarycentricMap to_map(const PyMap& m) { return {m.first, m.second}; }
 py::tuple from_map(const BarycentricMap& m) { return py::make_tuple(m.elem, RowMatrixXd(m.bary)); }
 
 // surface_map(VA, FA, VB, FB, options): the library's run_surface_map.
@@ -118,12 +119,12 @@ py::dict surface_map(const RowMatrixXd& VA, const RowMatrixXi& FA, const RowMatr
     req.bim.landmarks_B = l.second;
     tidy_landmark_pairs(req.bim.landmarks_A, req.bim.landmarks_B, "landmarks A", "landmarks B");
   }
-  if (!o["init"].is_none()) req.init_AB = to_map(o["init"].cast<std::pair<Eigen::VectorXi, RowMatrixXd>>());
-  if (!o["init_reverse"].is_none()) req.init_BA = to_map(o["init_reverse"].cast<std::pair<Eigen::VectorXi, RowMatrixXd>>());
+  if (!o["init"].is_none()) req.init_AB = to_map(o["init"].cast<PyMap>());
+  if (!o["init_reverse"].is_none()) req.init_BA = to_map(o["init_reverse"].cast<PyMap>());
   if (!o["prepared"].is_none())
     std::tie(req.prepared_A, req.prepared_B) =
         o["prepared"].cast<std::pair<std::shared_ptr<PreparedSurface>, std::shared_ptr<PreparedSurface>>>();
-  if (!o["truth"].is_none()) req.truth_AB = to_map(o["truth"].cast<std::pair<Eigen::VectorXi, RowMatrixXd>>());
+  if (!o["truth"].is_none()) req.truth_AB = to_map(o["truth"].cast<PyMap>());
   ElasticSettings& e = req.elastic;
   e.preset = o["elastic_preset"].cast<std::string>();
   e.eta = o["elastic_eta"].cast<double>();
@@ -175,9 +176,10 @@ py::dict volume_map(const RowMatrixXd& VA, const RowMatrixXi& EA, const RowMatri
   req.strict = o["strict"].cast<bool>();
   req.opt = volume_options(o);
   std::vector<int> la, lb;
-  if (!o["landmarks"].is_none()) std::tie(la, lb) = o["landmarks"].cast<std::pair<std::vector<int>, std::vector<int>>>();
+  if (!o["landmarks"].is_none())
+    std::tie(la, lb) = o["landmarks"].cast<std::pair<std::vector<int>, std::vector<int>>>();
   if (!o["surface_map"].is_none()) {
-    auto sm = o["surface_map"].cast<std::pair<std::pair<Eigen::VectorXi, RowMatrixXd>, std::pair<Eigen::VectorXi, RowMatrixXd>>>();
+    auto sm = o["surface_map"].cast<std::pair<PyMap, PyMap>>();
     req.surface_map_AB = to_map(sm.first);
     req.surface_map_BA = to_map(sm.second);
   }
@@ -281,19 +283,20 @@ void bind_io(py::module_& m) {
 
 void bind_evaluate(py::module_& m) {
   m.def("evaluate_surface", [](const RowMatrixXd& VA, const RowMatrixXi& FA, const RowMatrixXd& VB,
-                               const RowMatrixXi& FB, const std::pair<Eigen::VectorXi, RowMatrixXd>& P,
-                               std::optional<std::pair<Eigen::VectorXi, RowMatrixXd>> Q,
-                               std::optional<std::pair<Eigen::VectorXi, RowMatrixXd>> truth) {
+                               const RowMatrixXi& FB, const PyMap& P,
+                               std::optional<PyMap> Q,
+                               std::optional<PyMap> truth) {
     const TriMesh A = tri_mesh(VA, FA, "A"), B = tri_mesh(VB, FB, "B");
-    const BarycentricMap p = to_map(P), q = Q ? to_map(*Q) : BarycentricMap{}, t = truth ? to_map(*truth) : BarycentricMap{};
+    const BarycentricMap p = to_map(P), q = Q ? to_map(*Q) : BarycentricMap{};
+    const BarycentricMap t = truth ? to_map(*truth) : BarycentricMap{};
     validate_map(p, A.num_vertices(), B.num_faces(), 3, "map");
     if (Q) validate_map(q, B.num_vertices(), A.num_faces(), 3, "reverse map");
     if (truth) validate_map(t, A.num_vertices(), B.num_faces(), 3, "truth");
     return surface_map_metrics_json(A, B, p, Q ? &q : nullptr, truth ? &t : nullptr).dump();
   });
   m.def("evaluate_volume", [](const RowMatrixXd& VA, const RowMatrixXi& TA, const RowMatrixXd& VB,
-                              const RowMatrixXi& TB, const std::pair<Eigen::VectorXi, RowMatrixXd>& P,
-                              std::optional<std::pair<Eigen::VectorXi, RowMatrixXd>> Q) {
+                              const RowMatrixXi& TB, const PyMap& P,
+                              std::optional<PyMap> Q) {
     const TetMesh A = tet_mesh(VA, TA, "A"), B = tet_mesh(VB, TB, "B");
     const BarycentricMap p = to_map(P);
     validate_map(p, A.num_vertices(), B.num_tets(), 4, "map");

@@ -75,16 +75,19 @@ void prepare(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& req, S
   ro.strict = req.strict;
   run.repair_A = req.prepared_A ? req.prepared_A->repair : repair_surface(A, req.bim.name_A, ro);
   run.repair_B = req.prepared_B ? req.prepared_B->repair : repair_surface(B, req.bim.name_B, ro);
-  for (const auto* r : {&run.repair_A, &run.repair_B}) run.notes.insert(run.notes.end(), r->notes.begin(), r->notes.end());
+  for (const auto* r : {&run.repair_A, &run.repair_B})
+    run.notes.insert(run.notes.end(), r->notes.begin(), r->notes.end());
   check_input(run.repair_A.mesh, req.bim.name_A, req.bim.min_vertices, run.notes);
   check_input(run.repair_B.mesh, req.bim.name_B, req.bim.min_vertices, run.notes);
   if (req.bim.landmarks_A.size() != req.bim.landmarks_B.size())
     throw InputError(req.bim.name_B + ": " + std::to_string(req.bim.landmarks_B.size()) + " landmarks but " +
                      req.bim.name_A + " has " + std::to_string(req.bim.landmarks_A.size()));
   for (int v : req.bim.landmarks_A)
-    if (v < 0 || v >= A.num_vertices()) throw InputError(req.bim.name_A + ": landmark " + std::to_string(v) + " is not a vertex");
+    if (v < 0 || v >= A.num_vertices())
+      throw InputError(req.bim.name_A + ": landmark " + std::to_string(v) + " is not a vertex");
   for (int v : req.bim.landmarks_B)
-    if (v < 0 || v >= B.num_vertices()) throw InputError(req.bim.name_B + ": landmark " + std::to_string(v) + " is not a vertex");
+    if (v < 0 || v >= B.num_vertices())
+      throw InputError(req.bim.name_B + ": landmark " + std::to_string(v) + " is not a vertex");
   for (int v : req.bim.landmarks_A) run.landmarks_A.push_back(repaired_vertex(run.repair_A, v));
   for (int v : req.bim.landmarks_B) run.landmarks_B.push_back(repaired_vertex(run.repair_B, v));
   if (req.truth_AB.size() > 0) {
@@ -213,7 +216,8 @@ std::string elastic_initial_maps(const TriMesh& A, const TriMesh& B, const Surfa
     initBA = r.BA.map;
     return "bim";
   }
-  validate_map(req.init_AB, A.num_vertices(), B.num_faces(), 3, req.init_description.empty() ? "init AB" : req.init_description);
+  validate_map(req.init_AB, A.num_vertices(), B.num_faces(), 3,
+               req.init_description.empty() ? "init AB" : req.init_description);
   initAB = map_to_repaired(req.init_AB, run.repair_A, run.repair_B, B);
   if (req.init_BA.size() > 0) {
     validate_map(req.init_BA, B.num_vertices(), A.num_faces(), 3, "init BA");
@@ -386,7 +390,8 @@ void elastic_metrics(const TriMesh& A, const TriMesh& B, const BarycentricMap& i
     metrics["final"]["BA"] = surface_map_metrics_json(B, A, r.map_BA, &r.map_AB, nullptr);
   }
   if (r.last_AB.size() > 0) metrics["last_iterate"]["AB"] = surface_map_metrics_json(A, B, r.last_AB, nullptr, truth);
-  if (bij && r.last_BA.size() > 0) metrics["last_iterate"]["BA"] = surface_map_metrics_json(B, A, r.last_BA, nullptr, nullptr);
+  if (bij && r.last_BA.size() > 0)
+    metrics["last_iterate"]["BA"] = surface_map_metrics_json(B, A, r.last_BA, nullptr, nullptr);
   auto bad = [&](const char* when, const char* dir) {
     const nlohmann::json& m = metrics[when][dir];
     return m["flipped_triangles"].get<int>() + m["degenerate_triangles"].get<int>();

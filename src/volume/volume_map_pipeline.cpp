@@ -69,7 +69,8 @@ VolumeInput volume_input_from_surface(const TriMesh& given, const std::string& n
                        (ti.self_intersections_removed
                             ? " pairs of faces); meshing ran away, so the crossings were removed (CGAL) and it was "
                               "meshed again"
-                            : " pairs of faces); meshed the region inside it by ray parity, without crease protection"));
+                            : " pairs of faces); meshed the region inside it by ray parity, without crease "
+                              "protection"));
   if (!ti.creases_dropped.empty())
     in.notes.push_back(name + ": note: sharp creases not protected (CGAL's crease protection failed: " +
                        ti.creases_dropped + "); meshed without them");
