@@ -165,7 +165,8 @@ def surface_map(VA, FA, VB, FB, method="bim", landmarks=None, init=None, init_re
     of `init`). landmarks: (LA, LB) vertex index lists; names: A's and B's in error
     messages. Returns a Map A -> B (with .reverse B -> A for symmetric=True and for the
     elastic bijective model). prepared: (prepare_surface(A), prepare_surface(B)), for BIM
-    without landmarks: the per-surface stage is not done again (the same map).
+    (and elastic's BIM initial maps) without landmarks: the per-surface stage is not done
+    again (the same map).
     """
     if method not in ("bim", "elastic"):
         raise ValueError(f"method {method!r}: expected 'bim' or 'elastic'")

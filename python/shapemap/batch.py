@@ -11,7 +11,7 @@ dask-worker on any machines that see DIR and the shapes at the same paths).
 
 Per-shape work is done once per shape, as its own task, and cached in DIR/shapes/<name>/
 (reading and checks; for volume and register the tetrahedralization of surface inputs), so
-a rerun reuses it. BIM's per-surface stage (without landmarks) is kept in memory by each
+a rerun reuses it. BIM's per-surface stage (bim, and elastic's BIM initial maps; without landmarks) is kept in memory by each
 worker process: at most once per shape and worker. Each pair is a task writing DIR/<A>__<B>/ (map_AB.txt [map_BA.txt],
 A_on_B.<obj|vtk> [B_on_A], report.json; volume/register: A.vtk, B.vtk, the meshes the maps
 index) under a temporary name, renamed when complete. A rerun skips pairs whose folder is
@@ -127,7 +127,7 @@ def _compute(job, prepA, prepB, made):
         if tf and os.path.exists(tf):
             truth = shapemap.read_map(tf)
         prepared = None
-        if o["method"] == "bim" and not lm:
+        if not lm:  # BIM, or elastic's BIM initial maps
             prepared = (_bim_prepared(job["pathA"], a, VA, FA, o["seed"], made),
                         _bim_prepared(job["pathB"], b, VB, FB, o["seed"], made))
         m = shapemap.surface_map(VA, FA, VB, FB, method=o["method"], landmarks=lm, truth=truth, prepared=prepared,

@@ -211,7 +211,10 @@ std::string elastic_initial_maps(const TriMesh& A, const TriMesh& B, const Surfa
     bo.landmarks_B.clear();
     bo.symmetric = true;
     run.notes.push_back("elastic: initial maps by BIM (both directions)");
-    BIMResult r = blended_intrinsic_maps(RA, RB, bo, progress);
+    const bool prepared = !bo.reverse_candidates && prepared_fits(req.prepared_A.get(), bo) &&
+                          prepared_fits(req.prepared_B.get(), bo);
+    BIMResult r = prepared ? bim_prepared(*req.prepared_A->bim, *req.prepared_B->bim, bo, progress)
+                           : blended_intrinsic_maps(RA, RB, bo, progress);
     initAB = r.AB.map;
     initBA = r.BA.map;
     return "bim";

@@ -154,3 +154,11 @@ def test_prepared_surfaces_give_the_same_map(surfaces, bim):
     assert np.array_equal(m.element, bim.element) and np.array_equal(m.bary, bim.bary)
     assert np.array_equal(m.reverse.element, bim.reverse.element) and np.array_equal(m.reverse.bary, bim.reverse.bary)
     assert m.report["bim"]["stages"]["A/sampling_geodesics"] == 0  # not done again
+
+
+def test_prepared_surfaces_elastic_same_map(surfaces):
+    (VA, FA), (VB, FB) = surfaces
+    prepared = (shapemap.prepare_surface(VA, FA), shapemap.prepare_surface(VB, FB))
+    a = shapemap.surface_map(VA, FA, VB, FB, method="elastic", elastic_iterations=3)
+    b = shapemap.surface_map(VA, FA, VB, FB, method="elastic", elastic_iterations=3, prepared=prepared)
+    assert np.array_equal(a.element, b.element) and np.array_equal(a.bary, b.bary)
