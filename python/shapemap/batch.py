@@ -11,13 +11,14 @@ dask-worker on any machines that see DIR and the shapes at the same paths).
 
 Per-shape work is done once per shape, as its own task, and cached in DIR/shapes/<name>/
 (reading and checks; for volume and register the tetrahedralization of surface inputs), so
-a rerun reuses it. BIM's per-surface stage (bim, and elastic's BIM initial maps; without landmarks) is kept in memory by each
-worker process: at most once per shape and worker. Each pair is a task writing DIR/<A>__<B>/ (map_AB.txt [map_BA.txt],
-A_on_B.<obj|vtk> [B_on_A], report.json; volume/register: A.vtk, B.vtk, the meshes the maps
-index) under a temporary name, renamed when complete. A rerun skips pairs whose folder is
-complete. A failing pair is recorded with its error and the others go on. DIR/summary.csv
-and DIR/summary.html list per pair the status (ok, failed, skipped), the time and the
-metrics; DIR/summary.json has the totals and the per-shape preparation counts. Exit code:
+a rerun reuses it. BIM's per-surface stage (bim, and elastic's BIM initial maps; without
+landmarks) is kept in memory by each worker process: at most once per shape and worker.
+Each pair is a task writing DIR/<A>__<B>/ (map_AB.txt [map_BA.txt], A_on_B.<obj|vtk>
+[B_on_A], report.json; volume/register: A.vtk, B.vtk, the meshes the maps index) under a
+temporary name, renamed when complete. A rerun skips pairs whose folder is complete. A
+failing pair is recorded with its error and the others go on. DIR/summary.csv and
+DIR/summary.html list per pair the status (ok, failed, skipped), the time and the metrics;
+DIR/summary.json has the totals and the preparation counts. Exit code:
 0 when no pair failed, 1 otherwise, 2 for bad arguments.
 """
 import argparse
