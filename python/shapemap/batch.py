@@ -271,6 +271,7 @@ def start_client(a):
     if a.scheduler:
         return Client(a.scheduler), None
     os.environ.setdefault("OMP_WAIT_POLICY", "passive")  # inherited by the worker processes
+    os.environ["OMP_NUM_THREADS"] = str(a.threads_per_worker)  # also for calls without threads=
     cluster = LocalCluster(n_workers=a.workers, threads_per_worker=1, processes=True,
                            dashboard_address=None, silence_logs=logging.ERROR)
     return Client(cluster), cluster
