@@ -12,6 +12,7 @@
 #include "shapemap/io.h"
 #include "shapemap/maps.h"
 #include "shapemap/surface/bim.h"
+#include "shapemap/surface/surface_map_pipeline.h"
 #include "figures.h"
 #include "surface_map_elastic.h"
 #include <filesystem>
@@ -31,169 +32,108 @@ struct SurfaceMapArgs {
   int max_features = 10;
   int max_candidates = 10000;
   int num_even = 256;
+  ElasticSettings elastic;  // --elastic-* (surface_map_elastic.cpp)
+  std::string truth_ab;     // --truth
 };
 
-struct Inputs {
-  TriMesh A, B;
-  std::vector<int> la, lb;
-  std::vector<std::string> notes;  // repeated landmarks (tidy_landmark_pairs)
-};
-
-Inputs read_inputs(const SurfaceMapArgs& a) {
-  Inputs in;
-  in.A = read_surface(a.A);
-  in.B = read_surface(a.B);
-  if (!a.landmarks.empty()) {
-    if (a.landmarks.size() != 2) throw InputError("--landmarks: needs two files, LA and LB");
-    in.la = read_landmarks(a.landmarks[0], in.A.V);
-    in.lb = read_landmarks(a.landmarks[1], in.B.V);
-    in.notes = tidy_landmark_pairs(in.la, in.lb, a.landmarks[0], a.landmarks[1]);
-    if (in.la.size() < 3) throw InputError(a.landmarks[0] + ": at least 3 landmarks are needed");
-  }
-  return in;
-}
-
-BIMOptions bim_options(const SurfaceMapArgs& a, const GlobalOptions& g, const Inputs& in) {
+BIMOptions bim_options(const SurfaceMapArgs& a, const GlobalOptions& g) {
   BIMOptions o;
   o.seed = g.seed;
-  o.symmetric = a.symmetric;
   o.reverse_candidates = a.reverse_candidates;
   o.name_A = a.A;
   o.name_B = a.B;
   o.max_features = a.max_features;
   o.max_candidates = a.max_candidates;
   o.num_even = a.num_even;
-  o.landmarks_A = in.la;
-  o.landmarks_B = in.lb;
   return o;
 }
 
-nlohmann::json direction_json(const BIMDirectionResult& r) {
-  nlohmann::json j;
-  j["integrated_confidence"] = r.integrated_confidence;
-  j["num_candidates"] = r.num_candidates;
-  j["num_candidates_before_pruning"] = r.num_candidates_total;
-  j["num_consistent_pairs"] = r.num_consistent_pairs;
-  j["eigenvalues"] = r.eigenvalues;
-  j["num_eigenvectors_used"] = r.num_eigenvectors_used;
-  j["group_sizes"] = r.group_sizes;
-  j["group_integrated_confidence"] = r.group_confidence;
-  j["selected_group"] = r.selected_group;
-  j["from_reverse"] = r.from_reverse;
-  if (r.from_reverse) j["own_integrated_confidence"] = r.own_integrated_confidence;
-  j["best_single_map_confidence"] = r.best_candidate_confidence;
-  nlohmann::json sel = nlohmann::json::array();
-  for (auto& m : r.selected)
-    sel.push_back({{"candidate", m.index},
-                   {"source_vertices", m.source},
-                   {"target_vertices", m.target},
-                   {"confidence", m.integrated_confidence}});
-  j["selected_maps"] = sel;
-  return j;
+// --init for the elastic method: "bim", a map file (A -> B), or a folder with map_AB.txt
+// [map_BA.txt]; the maps are in the numbering of the files given.
+void read_init_maps(const std::string& init, const TriMesh& A, const TriMesh& B, SurfaceMapRequest& req) {
+  namespace fs = std::filesystem;
+  if (init.empty() || init == "bim") return;
+  if (fs::is_directory(init)) {
+    const std::string ab = (fs::path(init) / "map_AB.txt").string();
+    const std::string ba = (fs::path(init) / "map_BA.txt").string();
+    if (!fs::exists(ab)) throw InputError(init + ": no map_AB.txt in this folder");
+    req.init_AB = read_checked_map(ab, A.num_vertices(), B.num_faces());
+    req.init_description = "file " + ab;
+    if (fs::exists(ba)) {
+      req.init_BA = read_checked_map(ba, B.num_vertices(), A.num_faces());
+      req.init_description = "files " + ab + ", " + ba;
+    }
+    return;
+  }
+  if (!fs::exists(init)) throw InputError(init + ": no such file (--init bim|FILE)");
+  req.init_AB = read_checked_map(init, A.num_vertices(), B.num_faces());
+  req.init_description = "file " + init;
 }
 
-void write_mapped_surface(const std::string& path, const TriMesh& source, const Eigen::MatrixXd& X) {
-  TriMesh m;
-  m.V = X;
-  m.F = source.F;
-  write_surface(path, m);
+// The request of the library call from the command line: landmarks and maps read from
+// their files, in the numbering of the input surfaces.
+SurfaceMapRequest make_request(const SurfaceMapArgs& a, const GlobalOptions& g, const TriMesh& A, const TriMesh& B) {
+  if (a.method == "bim" && a.init != "bim")
+    throw InputError("--init " + a.init + ": an initial map is only used by --method elastic");
+  SurfaceMapRequest req;
+  req.method = a.method;
+  req.symmetric = a.symmetric;
+  req.strict = g.strict;
+  req.bim = bim_options(a, g);
+  req.elastic = a.elastic;
+  if (a.symmetric && a.method == "elastic" && a.elastic.injective)
+    throw InputError("--symmetric: the injective model (--elastic-injective, Eq. 4) maps A -> B only");
+  if (!a.landmarks.empty()) {
+    if (a.landmarks.size() != 2) throw InputError("--landmarks: needs two files, LA and LB");
+    req.bim.landmarks_A = read_landmarks(a.landmarks[0], A.V);
+    req.bim.landmarks_B = read_landmarks(a.landmarks[1], B.V);
+    for (const std::string& n : tidy_landmark_pairs(req.bim.landmarks_A, req.bim.landmarks_B, a.landmarks[0],
+                                                    a.landmarks[1]))
+      info(g, n);
+    if (a.method == "bim" && req.bim.landmarks_A.size() < 3)
+      throw InputError(a.landmarks[0] + ": at least 3 landmarks are needed");
+  }
+  if (!a.truth_ab.empty()) req.truth_AB = read_checked_map(a.truth_ab, A.num_vertices(), B.num_faces());
+  if (a.method == "elastic" && a.landmarks.empty()) read_init_maps(a.init, A, B, req);
+  return req;
 }
 
-int run_bim(const SurfaceMapArgs& a, const ElasticCliOptions& eo, const GlobalOptions& g) {
-  if (a.init != "bim") throw InputError("--init " + a.init + ": an initial map is only used by --method elastic");
+int run_surface_map_command(const SurfaceMapArgs& a, const GlobalOptions& g) {
   StageTimer timer;
   timer.start("read");
-  Inputs in = read_inputs(a);
-  for (const std::string& n : in.notes) info(g, n);
+  const TriMesh A = read_surface(a.A), B = read_surface(a.B);
+  const SurfaceMapRequest req = make_request(a, g, A, B);
   OutputDir out(a.out);
-  BIMOptions o = bim_options(a, g, in);
-  // Safe repairs (or --strict's refusal), then the library's input guard, before the
-  // progress line: bad input gives one line. BIM runs on the repaired surfaces; the outputs
-  // are carried back to the user's numbering.
-  const SurfaceRepair rA = repair_input_surface(in.A, a.A, g), rB = repair_input_surface(in.B, a.B, g);
-  check_surface_map_input(rA.mesh, a.A, o.min_vertices, g);
-  check_surface_map_input(rB.mesh, a.B, o.min_vertices, g);
-  for (int& v : o.landmarks_A) v = repaired_vertex(rA, v);
-  for (int& v : o.landmarks_B) v = repaired_vertex(rB, v);
-  BarycentricMap truth;
-  const bool has_truth = !eo.truth_ab.empty();
-  if (has_truth)
-    truth = map_to_repaired(read_checked_map(eo.truth_ab, in.A.num_vertices(), in.B.num_faces()), rA, rB, in.B);
-  timer.start("bim");
-  info(g, "surface-map: Blended Intrinsic Maps " + a.A + " -> " + a.B);
-  BIMResult r = blended_intrinsic_maps(rA.mesh, rB.mesh, o, make_progress(g));
+  timer.start(a.method);
+  if (a.method == "bim") info(g, "surface-map: Blended Intrinsic Maps " + a.A + " -> " + a.B);
+  const SurfaceMapRun r = run_surface_map(A, B, req, make_progress(g));
+  for (const std::string& n : r.notes) info(g, n);
   timer.start("write");
-  const bool repaired = rA.changed() || rB.changed();
-  const BarycentricMap mAB = map_to_inputs(r.AB.map, rA, rB, in.B);
-  write_map(out.path("map_AB.txt"), mAB);
-  write_mapped_surface(out.path("A_on_B.obj"), in.A, repaired ? map_positions(mAB, in.B.V, in.B.F) : r.AB.positions);
-  if (a.symmetric) {
-    const BarycentricMap mBA = map_to_inputs(r.BA.map, rB, rA, in.A);
-    write_map(out.path("map_BA.txt"), mBA);
-    write_mapped_surface(out.path("B_on_A.obj"), in.B, repaired ? map_positions(mBA, in.A.V, in.A.F) : r.BA.positions);
+  write_map(out.path("map_AB.txt"), r.AB);
+  write_surface(out.path("A_on_B.obj"), TriMesh{map_positions(r.AB, B.V, B.F), A.F});
+  if (r.has_BA()) {
+    write_map(out.path("map_BA.txt"), r.BA);
+    write_surface(out.path("B_on_A.obj"), TriMesh{map_positions(r.BA, A.V, A.F), B.F});
   }
-  timer.stop();
   nlohmann::json j = report_header(g, "surface-map");
-  j["method"] = "bim";
-  j["inputs"] = {{"A", a.A}, {"B", a.B}, {"A_vertices", in.A.num_vertices()}, {"A_faces", in.A.num_faces()},
-                 {"B_vertices", in.B.num_vertices()}, {"B_faces", in.B.num_faces()}};
-  j["inputs"]["repairs"] = repairs_json(rA, rB);
+  j.update(r.report);
+  j["inputs"]["A"] = a.A;
+  j["inputs"]["B"] = a.B;
   if (!a.landmarks.empty()) j["inputs"]["landmarks"] = a.landmarks;
-  if (has_truth) j["inputs"]["truth"] = eo.truth_ab;
-  j["parameters"] = {{"max_features", o.max_features},     {"num_even", o.num_even},
-                     {"max_candidates", o.max_candidates}, {"sigma", o.sigma},
-                     {"eigenvalue_fraction", o.eigenvalue_fraction},
-                     {"entry_fraction", o.entry_fraction}, {"feature_radius", o.feature_radius},
-                     {"symmetric", o.symmetric}, {"reverse_candidates", o.reverse_candidates}};
-  // BIM's own output (Sec. 5): candidates, consistency spectrum, selected maps, stages.
-  nlohmann::json bim;
-  bim["features_A"] = r.features_A;
-  bim["features_B"] = r.features_B;
-  bim["AB"] = direction_json(r.AB);
-  if (a.symmetric) bim["BA"] = direction_json(r.BA);
-  nlohmann::json stages = nlohmann::json::object();
-  for (auto& [name, s] : r.timings) stages[name] = s;
-  bim["stages"] = stages;
-  bim["total_seconds"] = r.total_seconds;
-  j["bim"] = bim;
-  // The same map metrics as the elastic method (and its geodesic error with --truth), of
-  // the surfaces BIM ran on.
-  timer.start("metrics");
-  Eigen::VectorXd error_AB;  // per vertex of A, with --truth (report.html)
-  j["metrics"]["AB"] = surface_map_metrics_json(rA.mesh, rB.mesh, r.AB.map, a.symmetric ? &r.BA.map : nullptr,
-                                                has_truth ? &truth : nullptr, &error_AB);
-  if (a.symmetric) j["metrics"]["BA"] = surface_map_metrics_json(rB.mesh, rA.mesh, r.BA.map, &r.AB.map, nullptr);
+  if (!a.truth_ab.empty()) j["inputs"]["truth"] = a.truth_ab;
   timer.start("pictures");
-  const auto figures = surface_map_figures(rA.mesh, rB.mesh, r.AB.map, a.symmetric ? &r.BA.map : nullptr);
-  const ViewerData viewer = surface_map_viewer_data(rA.mesh, rB.mesh, r.AB.map, a.symmetric ? &r.BA.map : nullptr,
-                                                    o.landmarks_A, o.landmarks_B, &error_AB);
+  const TriMesh &RA = r.repair_A.mesh, &RB = r.repair_B.mesh;
+  const BarycentricMap* BA = r.has_BA() ? &r.BA_repaired : nullptr;
+  const auto figures = surface_map_figures(RA, RB, r.AB_repaired, BA);
+  const ViewerData viewer = surface_map_viewer_data(RA, RB, r.AB_repaired, BA, r.landmarks_A, r.landmarks_B,
+                                                    &r.error_AB);
   timer.stop();
   j["timings"] = timer.json();
-  write_reports(out, j, "shapemap surface-map --method bim", figures, &viewer, &g);
+  write_reports(out, j, "shapemap surface-map --method " + a.method, figures, &viewer, &g);
   out.commit();
-  info(g, "surface-map: integrated confidence " + std::to_string(r.AB.integrated_confidence) + ", " +
-              std::to_string(r.AB.selected.size()) + " blended maps of " + std::to_string(r.AB.num_candidates) +
-              " candidates; wrote " + a.out);
+  info(g, r.summary + ", " + std::to_string(timer.total()) + " s; wrote " + a.out);
+  for (const std::string& w : r.warnings) info(g, w);
   return 0;
-}
-
-// ---- --method elastic ------------------------------------------------------------------
-// Initial maps: BIM in both directions (--init bim, with --landmarks restricted to them)
-// or a map file (--init FILE). The elastic refinement itself is added here by the
-// elastic-correspondence implementation (src/surface/elastic.*).
-int run_elastic(const SurfaceMapArgs& a, const ElasticCliOptions& eo, const GlobalOptions& g) {
-  // The whole elastic pipeline (init, refinement, metrics, outputs) lives in
-  // cli/surface_map_elastic.cpp; --init FILE is validated there (exit 2 on mismatch).
-  if (a.symmetric && eo.injective)
-    throw InputError("--symmetric: the injective model (--elastic-injective, Eq. 4) maps A -> B only");
-  ElasticMapArgs e;
-  e.A = a.A;
-  e.B = a.B;
-  e.out = a.out;
-  e.init = a.init;
-  e.landmarks = a.landmarks;
-  e.bim = bim_options(a, g, Inputs{});
-  return run_elastic_surface_map(e, eo, g);
 }
 
 }  // namespace
@@ -223,12 +163,8 @@ Command register_surface_map(CLI::App& app, GlobalOptions& g) {
   c.app->add_option("--candidates", a->max_candidates, "BIM: at most this many candidate Möbius maps")
       ->check(CLI::PositiveNumber);
   c.app->add_option("--samples", a->num_even, "BIM: |P_even| evenly spread samples")->check(CLI::Range(16, 4096));
-  auto eo = std::make_shared<ElasticCliOptions>();
-  add_elastic_options(c.app, *eo);
-  c.run = [a, eo, &g] {
-    if (a->method == "elastic") return run_elastic(*a, *eo, g);
-    return run_bim(*a, *eo, g);
-  };
+  add_elastic_options(c.app, a->elastic, a->truth_ab);
+  c.run = [a, &g] { return run_surface_map_command(*a, g); };
   return c;
 }
 

@@ -49,18 +49,6 @@ void info(const GlobalOptions& g, const std::string& msg) {
   if (!g.quiet) std::cerr << msg << "\n";
 }
 
-void check_surface_map_input(const TriMesh& mesh, const std::string& path, int min_vertices,
-                             const GlobalOptions& g) {
-  TriMesh copy = mesh;
-  require_genus0_surface(copy, path, min_vertices);
-  const MeshReport r = check_surface(mesh);
-  if (r.degenerate_elements > 0 || r.duplicate_vertices > 0)
-    info(g, path + ": note: " + std::to_string(r.degenerate_elements) + " zero-area faces and " +
-                std::to_string(r.duplicate_vertices) +
-                " vertices at the position of another; the map is unreliable near them (shapemap check " + path +
-                " lists the problems)");
-}
-
 SurfaceRepair repair_input_surface(const TriMesh& mesh, const std::string& path, const GlobalOptions& g) {
   SurfaceRepairOptions o;
   o.strict = g.strict;
@@ -293,7 +281,7 @@ double StageTimer::total() const {
 
 nlohmann::json report_header(const GlobalOptions& g, const std::string& command) {
   nlohmann::json j;
-  j["tool"] = "shapemap 0.1.0";
+  j["tool"] = std::string("shapemap ") + SHAPEMAP_VERSION;
   j["command"] = command;
   j["seed"] = g.seed;
   j["threads"] = g.threads > 0 ? g.threads : omp_get_max_threads();

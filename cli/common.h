@@ -73,13 +73,6 @@ ProgressCallback make_progress(const GlobalOptions& g);
 // A one-line message on stderr unless --quiet.
 void info(const GlobalOptions& g, const std::string& msg);
 
-// The input guard of `surface-map` (BIM and elastic): closed, manifold, connected, genus 0,
-// at least min_vertices (require_genus0_surface on a copy: the maps refer to the faces as
-// given). Zero-area faces and coincident vertices pass (the intrinsic methods run on the
-// connectivity) with a note, since the map near them is unreliable.
-void check_surface_map_input(const TriMesh& mesh, const std::string& path, int min_vertices,
-                             const GlobalOptions& g);
-
 // The safe repairs of a surface the user gave (shapemap/repair.h, docs/methods.md): one note
 // line per change on stderr (unless --quiet); --strict refuses instead (InputError: exit 2,
 // one line naming `path` and the defects). The notes also go into report.json
@@ -156,6 +149,10 @@ Command register_evaluate(CLI::App& app, GlobalOptions& g);
 Command register_render(CLI::App& app, GlobalOptions& g);
 Command register_demo(CLI::App& app, GlobalOptions& g);
 Command register_check(CLI::App& app, GlobalOptions& g);
+Command register_batch(CLI::App& app, GlobalOptions& g);  // cmd_batch.cpp: execs python3 -m shapemap.batch
+// `shapemap [global options] batch ARGS...`: sets ARGS aside for the batch (passed on to
+// Python verbatim) and returns the arguments up to `batch`; other command lines as they are.
+std::vector<std::string> split_batch_arguments(const std::vector<std::string>& args);
 
 // Runs the tool in-process on an argument list (args[0] is the program name) with
 // fresh options: parse, dispatch, map exceptions to exit codes. main() and the demo

@@ -5,6 +5,7 @@
 // MAP_AB: the map file (vertex of A -> tet of B + barycentric). --map-ba adds E_R (Eq. 18).
 // --truth: ground-truth images of A's vertices in B's coordinates, either a map file of
 // the same kind or a text file with one "x y z" line per vertex of A.
+#include "shapemap/volume/volume_map_pipeline.h"
 #include "common.h"
 #include "eval_output.h"
 #include "shapemap/error.h"
@@ -19,7 +20,6 @@
 
 namespace shapemap::cli {
 
-nlohmann::json volume_metrics_json(const VolumeMapMetrics& m);  // cmd_volume_map.cpp
 
 namespace {
 Eigen::MatrixXd read_truth(const std::string& path, const TetMesh& B) {

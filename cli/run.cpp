@@ -19,7 +19,8 @@ std::string one_line(std::string msg) {
 }
 }  // namespace
 
-int run(const std::vector<std::string>& args) {
+int run(const std::vector<std::string>& all_args) {
+  const std::vector<std::string> args = split_batch_arguments(all_args);
   CLI::App app{"shapemap: dense correspondences between 3D shapes (surfaces and volumes)"};
   app.require_subcommand(1);
   GlobalOptions g;
@@ -29,13 +30,13 @@ int run(const std::vector<std::string>& args) {
                "Refuse input surfaces with defects (non-manifold, duplicates, degenerate faces, "
                "floating pieces, small holes) instead of repairing them");
   app.add_option("--seed", g.seed, "Random seed: the same input and seed give the same output");
-  app.set_version_flag("--version", "shapemap 0.1.0");
+  app.set_version_flag("--version", std::string("shapemap ") + SHAPEMAP_VERSION);
 
   std::vector<Command> commands = {
       register_surface_map(app, g), register_volume_map(app, g), register_ball(app, g),
       register_register(app, g),    register_tetrahedralize(app, g), register_generate(app, g),
       register_evaluate(app, g),    register_render(app, g),     register_demo(app, g),
-      register_check(app, g)};
+      register_check(app, g),       register_batch(app, g)};
   for (auto& c : commands) c.app->fallthrough();
 
   std::vector<std::string> rev(args.rbegin(), args.rend() - (args.empty() ? 0 : 1));

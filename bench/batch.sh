@@ -1,0 +1,76 @@
+#!/usr/bin/env bash
+# bench/batch.sh: `shapemap batch` on all pairs of 6 generated shapes with BIM, on 1 and on 2
+# local Dask workers, against the same pairs run directly (`shapemap surface-map`, one after
+# the other, one thread each). Prints the times, the per-shape preparations counted in the
+# summary, and pass/fail against the issue-21 targets:
+#   - each shape prepared once per batch;
+#   - 2 workers >= 1.7x faster than 1 worker;
+#   - the Python and Dask layers add <= 5%: the 1-worker batch against the direct runs
+#     (which also render pictures), and against the sum of its own pair tasks.
+# Usage: bench/batch.sh [--vertices N] [--build DIR] [--work DIR]   (default 1500, build, bench/out/batch)
+set -euo pipefail
+here=$(cd "$(dirname "$0")/.." && pwd)
+build=$here/build
+work=$here/bench/out/batch
+vertices=1500
+while [ $# -gt 0 ]; do
+  case $1 in
+    --vertices) vertices=$2; shift 2 ;;
+    --build) build=$2; shift 2 ;;
+    --work) work=$2; shift 2 ;;
+    *) echo "bench/batch.sh: unknown option $1" >&2; exit 2 ;;
+  esac
+done
+exe=$build/shapemap
+[ -x "$exe" ] || { echo "bench/batch.sh: $exe missing (make build)" >&2; exit 2; }
+export OMP_WAIT_POLICY=passive
+rm -rf "$work"
+mkdir -p "$work/shapes"
+shapes=()
+k=0
+for s in creature sphere ellipsoid cube-sphere creature ellipsoid; do
+  k=$((k + 1))
+  "$exe" --quiet generate --shape "$s" --vertices "$vertices" --seed "$k" -o "$work/shapes/s$k.obj"
+  shapes+=("$work/shapes/s$k.obj")
+done
+now() { date +%s.%N; }
+calc() { /usr/bin/python3 -c "print($1)"; }
+
+# The same pairs directly, one process per pair, one thread.
+t0=$(now)
+for ((i = 0; i < ${#shapes[@]}; i++)); do
+  for ((j = i + 1; j < ${#shapes[@]}; j++)); do
+    "$exe" --quiet --threads 1 surface-map "${shapes[$i]}" "${shapes[$j]}" -o "$work/direct/$i-$j" >/dev/null
+  done
+done
+t_direct=$(calc "$(now) - $t0")
+
+run_batch() {  # workers
+  local t
+  t=$(now)
+  "$exe" --quiet --threads 1 batch "${shapes[@]}" -o "$work/batch$1" --method bim --workers "$1"
+  calc "$(now) - $t"
+}
+t1=$(run_batch 1)
+t2=$(run_batch 2)
+prep1=$(/usr/bin/python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['preparations'])" "$work/batch1/summary.json")
+prep2=$(/usr/bin/python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['preparations'])" "$work/batch2/summary.json")
+bim1=$(/usr/bin/python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['bim_preparations'])" "$work/batch1/summary.json")
+bim2=$(/usr/bin/python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['bim_preparations'])" "$work/batch2/summary.json")
+
+# The pairs' own time inside the tasks (the map computed through the module, files written).
+tasks1=$(/usr/bin/python3 -c "import csv,sys; print(sum(float(r['seconds']) for r in csv.DictReader(open(sys.argv[1]))))" "$work/batch1/summary.csv")
+speedup=$(calc "$t1 / $t2")
+dask_overhead=$(calc "($t1 - $tasks1) / $tasks1 * 100")
+overhead=$(calc "($t1 - $t_direct) / $t_direct * 100")
+pf() { /usr/bin/python3 -c "print('PASS' if ($1) else 'FAIL')"; }
+printf 'bench/batch.sh: 6 shapes of %d vertices, 15 pairs, BIM, %s\n' "$vertices" "$(date -u +%FT%TZ)"
+printf '  direct (15 x shapemap surface-map, 1 thread): %.1f s\n' "$t_direct"
+printf '  batch, 1 worker:  %.1f s   preparations %s, BIM preparations %s (6 shapes)\n' "$t1" "$prep1" "$bim1"
+printf '  batch, 2 workers: %.1f s   preparations %s, BIM preparations %s (6 shapes, <= 2 per shape)\n' "$t2" "$prep2" "$bim2"
+printf '  each shape prepared once:          %s\n' "$(pf "$prep1 == 6 and $prep2 == 6")"
+printf '  2 workers vs 1: %.2fx (>= 1.7x):    %s\n' "$speedup" "$(pf "$speedup >= 1.7")"
+printf '  sum of the pair tasks (1 worker): %.1f s\n' "$tasks1"
+printf '  Python/Dask layers vs direct CLI runs: %+.1f%% (<= 5%%): %s\n' "$overhead" "$(pf "$overhead <= 5")"
+printf '  Dask layer vs the tasks themselves:    %+.1f%% (<= 5%%): %s\n' "$dask_overhead" "$(pf "$dask_overhead <= 5")"
+echo "  (the CLI runs also render report.html and PNG pictures, which batch does not)"

@@ -1,0 +1,410 @@
+"""shapemap batch: maps over whole shape collections on Dask distributed.
+
+    python3 -m shapemap.batch SHAPE... -o DIR --method bim|elastic|volume|register
+        [--pairs all|FILE.csv] [--landmarks-dir D] [--truth-dir D] [--workers N]
+        [--threads-per-worker T] [--scheduler tcp://HOST:PORT] [--tets N] [--seed S]
+        [--symmetric] [--quiet]
+
+(`shapemap batch ...` runs this.) Without --scheduler a local cluster of N worker
+processes is started; with it, the tasks go to a running cluster (dask-scheduler and
+dask-worker on any machines that see DIR and the shapes at the same paths).
+
+Per-shape work is done once per shape, as its own task, and cached in DIR/shapes/<name>/
+(reading and checks; for volume and register the tetrahedralization of surface inputs), so
+a rerun reuses it. BIM's per-surface stage (bim, and elastic's BIM initial maps; without
+landmarks) is kept in memory by each worker process: at most once per shape and worker.
+Each pair is a task writing DIR/<A>__<B>/ (map_AB.txt [map_BA.txt], A_on_B.<obj|vtk>
+[B_on_A], report.json; volume/register: A.vtk, B.vtk, the meshes the maps index) under a
+temporary name, renamed when complete. A rerun skips pairs whose folder is complete. A
+failing pair is recorded with its error and the others go on. DIR/summary.csv and
+DIR/summary.html list per pair the status (ok, failed, skipped), the time and the metrics;
+DIR/summary.json has the totals and the preparation counts. Exit code:
+0 when no pair failed, 1 otherwise, 2 for bad arguments.
+"""
+import argparse
+import csv
+import html
+import json
+import os
+import shutil
+import sys
+import time
+
+SURFACE_EXT = (".obj", ".off", ".ply", ".stl")
+VOLUME_EXT = (".vtk", ".mesh", ".msh", ".node", ".ele")
+METHODS = ("bim", "elastic", "volume", "register")
+SURFACE_METRICS = ("conformal_distortion_mean", "area_distortion_mean_abs", "flipped_triangles",
+                   "degenerate_triangles", "reversibility", "geodesic_error_mean", "geodesic_within_0_1")
+VOLUME_METRICS = ("n_inv", "d_avg_hat", "d_max_hat", "det_J_mean", "det_J_sd", "E_ARAP", "truth_error_mean")
+
+
+def shape_name(path):
+    return os.path.splitext(os.path.basename(path))[0]
+
+
+# ---- tasks (run on the workers) ---------------------------------------------------------
+
+def prepare_shape(path, cache, method, tets, seed):
+    """Reads and checks one shape (tetrahedralizes surfaces for volume methods), once: the
+    result is cached in `cache` (a folder); a second call only reads prep.json."""
+    import numpy as np
+    import shapemap
+    info_path = os.path.join(cache, "prep.json")
+    if os.path.exists(info_path):
+        with open(info_path) as f:
+            info = json.load(f)
+        info["prepared"] = False
+        return info
+    os.makedirs(cache, exist_ok=True)
+    t0 = time.perf_counter()
+    info = {"shape": path, "status": "ok", "error": ""}
+    try:
+        if path.lower().endswith(VOLUME_EXT):
+            if method in ("bim", "elastic"):
+                raise shapemap.InputError(f"{path}: a tet mesh; --method {method} maps surfaces")
+            V, T = shapemap.read_volume(path)
+            np.savez(os.path.join(cache, "volume.npz"), V=V, T=T)
+        elif path.lower().endswith(SURFACE_EXT):
+            V, F = shapemap.read_surface(path)
+            np.savez(os.path.join(cache, "surface.npz"), V=V, F=F)
+            if method in ("volume", "register"):
+                VT, T = shapemap.tetrahedralize(V, F, tets=tets, seed=seed)
+                np.savez(os.path.join(cache, "volume.npz"), V=VT, T=T)
+        else:
+            raise shapemap.InputError(f"{path}: unknown extension (surface: .obj .off .ply .stl; "
+                                      "tet mesh: .vtk .mesh .msh .node .ele)")
+    except (ValueError, RuntimeError, OSError) as e:
+        info.update(status="failed", error=str(e))
+    info["seconds"] = time.perf_counter() - t0
+    with open(info_path + ".tmp", "w") as f:
+        json.dump(info, f)
+    os.replace(info_path + ".tmp", info_path)
+    info["prepared"] = True
+    return info
+
+
+def _load(prep, cache, kind):
+    import numpy as np
+    if prep["status"] != "ok":
+        raise ValueError(prep["error"])
+    d = np.load(os.path.join(cache, kind + ".npz"))
+    return (d["V"], d["F"]) if kind == "surface" else (d["V"], d["T"])
+
+
+def _landmarks(d, a, b):
+    import numpy as np
+    if not d:
+        return None
+    fa, fb = os.path.join(d, a + ".txt"), os.path.join(d, b + ".txt")
+    for f in (fa, fb):
+        if not os.path.exists(f):
+            raise ValueError(f"{f}: no landmark file (--landmarks-dir needs <shape>.txt per shape)")
+    return (np.loadtxt(fa, dtype=int, ndmin=1).tolist(), np.loadtxt(fb, dtype=int, ndmin=1).tolist())
+
+
+# BIM's per-surface stage, kept in each worker process for the pairs it runs (a prepared
+# surface is not picklable: every worker prepares a shape at most once).
+_BIM_PREPARED = {}
+
+
+def _bim_prepared(path, name, V, F, seed, made):
+    import shapemap
+    key = (path, seed)
+    if key not in _BIM_PREPARED:
+        _BIM_PREPARED[key] = shapemap.prepare_surface(V, F, seed=seed, name=path)
+        made.append(name)
+    return _BIM_PREPARED[key]
+
+
+def _compute(job, prepA, prepB, made):
+    """The map of one pair; returns (map, meshes A and B, element kind)."""
+    import shapemap
+    a, b, o = job["A"], job["B"], job["options"]
+    lm = _landmarks(o["landmarks_dir"], a, b)
+    if o["method"] in ("bim", "elastic"):
+        (VA, FA), (VB, FB) = _load(prepA, job["cacheA"], "surface"), _load(prepB, job["cacheB"], "surface")
+        truth = None
+        tf = os.path.join(o["truth_dir"], f"{a}__{b}.txt") if o["truth_dir"] else None
+        if tf and os.path.exists(tf):
+            truth = shapemap.read_map(tf)
+        prepared = None
+        if not lm:  # BIM, or elastic's BIM initial maps
+            prepared = (_bim_prepared(job["pathA"], a, VA, FA, o["seed"], made),
+                        _bim_prepared(job["pathB"], b, VB, FB, o["seed"], made))
+        m = shapemap.surface_map(VA, FA, VB, FB, method=o["method"], landmarks=lm, truth=truth, prepared=prepared,
+                                 symmetric=o["symmetric"], seed=o["seed"], threads=o["threads"],
+                                 names=(job["pathA"], job["pathB"]))
+        return m, (VA, FA), (VB, FB), "surface"
+    (VA, TA), (VB, TB) = _load(prepA, job["cacheA"], "volume"), _load(prepB, job["cacheB"], "volume")
+    if o["method"] == "volume":
+        m = shapemap.volume_map(VA, TA, VB, TB, init="landmarks" if lm else "auto", landmarks=lm,
+                                seed=o["seed"], threads=o["threads"], names=(job["pathA"], job["pathB"]))
+    else:
+        m = shapemap.register(VA, TA, VB, TB, threads=o["threads"])
+    return m, (VA, TA), (VB, TB), "volume"
+
+
+def _write_pair(tmp, m, A, B, kind, report):
+    import shapemap
+    shapemap.write_map(os.path.join(tmp, "map_AB.txt"), m)
+    write, ext = (shapemap.write_surface, ".obj") if kind == "surface" else (shapemap.write_volume, ".vtk")
+    write(os.path.join(tmp, "A_on_B" + ext), m.points(), A[1])
+    if m.reverse is not None:
+        shapemap.write_map(os.path.join(tmp, "map_BA.txt"), m.reverse)
+        write(os.path.join(tmp, "B_on_A" + ext), m.reverse.points(), B[1])
+    if kind == "volume":  # the tet meshes the maps index
+        shapemap.write_volume(os.path.join(tmp, "A.vtk"), *A)
+        shapemap.write_volume(os.path.join(tmp, "B.vtk"), *B)
+    with open(os.path.join(tmp, "report.json"), "w") as f:
+        json.dump(report, f, indent=1)
+
+
+def run_pair(job, prepA, prepB):
+    """One pair: computes the map and writes DIR/A__B/ (temporary name, then renamed).
+    Never raises for a failing pair: returns its status and error."""
+    t0 = time.perf_counter()
+    out = job["out"]
+    tmp = f"{out}.tmp-{os.getpid()}"
+    made = []  # shapes whose BIM stage this task prepared
+    try:
+        for p, name in ((prepA, job["A"]), (prepB, job["B"])):
+            if p["status"] != "ok":
+                raise ValueError(p["error"] or f"{name}: preparation failed")
+        m, A, B, kind = _compute(job, prepA, prepB, made)
+        report = dict(m.report)
+        report["batch"] = {"A": job["pathA"], "B": job["pathB"], "method": job["options"]["method"],
+                           "seconds": time.perf_counter() - t0}
+        shutil.rmtree(tmp, ignore_errors=True)
+        os.makedirs(tmp)
+        _write_pair(tmp, m, A, B, kind, report)
+        os.replace(tmp, out)
+        return {"pair": job["pair"], "status": "ok", "seconds": time.perf_counter() - t0, "error": "",
+                "metrics": summary_metrics(report), "bim_prepared": made}
+    except (ValueError, RuntimeError, OSError, MemoryError) as e:
+        shutil.rmtree(tmp, ignore_errors=True)
+        msg = " ".join(str(e).split())
+        return {"pair": job["pair"], "status": "failed", "seconds": time.perf_counter() - t0, "error": msg,
+                "metrics": {}, "bim_prepared": made}
+
+
+def summary_metrics(report):
+    """The metrics of the A -> B direction that summary.csv lists."""
+    met = report.get("metrics", {})
+    if "final" in met:  # elastic
+        met = met["final"]
+    ab = met.get("AB", met)
+    keys = SURFACE_METRICS if "conformal_distortion_mean" in ab else VOLUME_METRICS
+    return {k: ab[k] for k in keys if k in ab}
+
+
+# ---- the driver -------------------------------------------------------------------------
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # one line, like every other input error of shapemap
+        print(f"shapemap: error: batch: {message} (see --help)", file=sys.stderr)
+        sys.exit(2)
+
+
+def parse_args(argv):
+    p = _Parser(prog="shapemap batch", description="Maps over shape collections on Dask.")
+    p.add_argument("shapes", nargs="+", metavar="SHAPE", help="surfaces (.obj .off .ply .stl) or tet meshes")
+    p.add_argument("-o", "--output", required=True, metavar="DIR")
+    p.add_argument("--method", required=True, choices=METHODS)
+    p.add_argument("--pairs", default="all", help="all (every unordered pair once) or a CSV of A,B names")
+    p.add_argument("--landmarks-dir", default="", help="landmark files <shape>.txt (vertex indices)")
+    p.add_argument("--truth-dir", default="", help="ground-truth maps <A>__<B>.txt (surface methods)")
+    p.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="local worker processes")
+    p.add_argument("--threads-per-worker", type=int, default=1, help="OpenMP threads per task")
+    p.add_argument("--scheduler", default="", help="a running Dask scheduler, tcp://HOST:PORT")
+    p.add_argument("--tets", type=int, default=0, help="tets per tetrahedralized surface (0: default)")
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--symmetric", action="store_true", help="bim: also B -> A")
+    p.add_argument("--quiet", action="store_true")
+    a = p.parse_args(argv)
+    if a.workers < 1 or a.threads_per_worker < 1:
+        p.error("--workers and --threads-per-worker must be >= 1")
+    return a
+
+
+def read_pairs(spec, names):
+    if spec == "all":
+        return [(names[i], names[j]) for i in range(len(names)) for j in range(i + 1, len(names))]
+    pairs = []
+    with open(spec, newline="") as f:
+        for row in csv.reader(f):
+            row = [shape_name(c.strip()) for c in row if c.strip()]
+            if not row or row[0].startswith("#") or row == ["A", "B"]:
+                continue
+            if len(row) != 2 or row[0] not in names or row[1] not in names:
+                raise ValueError(f"{spec}: {','.join(row)}: expected two of the given shapes' names")
+            pairs.append((row[0], row[1]))
+    return pairs
+
+
+class Progress:
+    """Pairs done of the total: a bar on a terminal, a line per pair otherwise."""
+
+    def __init__(self, total, quiet):
+        self.total, self.done, self.quiet = total, 0, quiet
+        self.tty = sys.stderr.isatty()
+
+    def pair(self, r):
+        self.done += 1
+        if self.quiet:
+            return
+        line = f"[{self.done}/{self.total}] {r['pair']} {r['status']} {r['seconds']:.1f} s"
+        if r["error"]:
+            line += f": {r['error']}"
+        if self.tty:
+            fill = 30 * self.done // max(1, self.total)
+            sys.stderr.write(f"\r\033[K{line}\n[{'#' * fill}{' ' * (30 - fill)}] {self.done}/{self.total}")
+            if self.done == self.total:
+                sys.stderr.write("\n")
+        else:
+            sys.stderr.write(line + "\n")
+        sys.stderr.flush()
+
+
+def start_client(a):
+    from dask.distributed import Client, LocalCluster
+    import logging
+    if a.scheduler:
+        return Client(a.scheduler), None
+    os.environ.setdefault("OMP_WAIT_POLICY", "passive")  # inherited by the worker processes
+    os.environ["OMP_NUM_THREADS"] = str(a.threads_per_worker)  # also for calls without threads=
+    cluster = LocalCluster(n_workers=a.workers, threads_per_worker=1, processes=True,
+                           dashboard_address=None, silence_logs=logging.ERROR)
+    return Client(cluster), cluster
+
+
+def make_jobs(a, paths, pairs):
+    out = os.path.abspath(a.output)
+    options = {"method": a.method, "landmarks_dir": a.landmarks_dir, "truth_dir": a.truth_dir,
+               "symmetric": a.symmetric, "seed": a.seed, "threads": a.threads_per_worker}
+    jobs, skipped = [], []
+    for x, y in pairs:
+        job = {"pair": f"{x}__{y}", "A": x, "B": y, "pathA": paths[x], "pathB": paths[y],
+               "out": os.path.join(out, f"{x}__{y}"), "cacheA": os.path.join(out, "shapes", x),
+               "cacheB": os.path.join(out, "shapes", y), "options": options}
+        (skipped if os.path.exists(os.path.join(job["out"], "report.json")) else jobs).append(job)
+    return jobs, skipped
+
+
+def skipped_result(job):
+    with open(os.path.join(job["out"], "report.json")) as f:
+        rep = json.load(f)
+    return {"pair": job["pair"], "status": "skipped", "seconds": rep.get("batch", {}).get("seconds", 0.0),
+            "error": "", "metrics": summary_metrics(rep)}
+
+
+def run_batch(a, paths, pairs, progress):
+    """Submits the preparations and the pairs; returns (results, preparation infos)."""
+    from dask.distributed import as_completed
+    jobs, skipped = make_jobs(a, paths, pairs)
+    results = [skipped_result(j) for j in skipped]
+    for r in results:
+        progress.pair(r)
+    preps = {}
+    if not jobs:
+        return results, preps
+    client, cluster = start_client(a)
+    try:
+        needed = sorted({j["A"] for j in jobs} | {j["B"] for j in jobs})
+        out = os.path.abspath(a.output)
+        prep_futures = {n: client.submit(prepare_shape, paths[n], os.path.join(out, "shapes", n), a.method,
+                                         a.tets, a.seed, key=f"prepare-{n}-{time.time_ns()}", pure=False)
+                        for n in needed}
+        futures = [client.submit(run_pair, j, prep_futures[j["A"]], prep_futures[j["B"]],
+                                 key=f"pair-{j['pair']}-{time.time_ns()}", pure=False) for j in jobs]
+        for fut in as_completed(futures):
+            r = fut.result()
+            results.append(r)
+            progress.pair(r)
+        preps = {n: f.result() for n, f in prep_futures.items()}
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+    return results, preps
+
+
+def write_summary(out, a, results, preps, seconds):
+    results = sorted(results, key=lambda r: r["pair"])
+    keys = []
+    for r in results:
+        keys += [k for k in r["metrics"] if k not in keys]
+    with open(os.path.join(out, "summary.csv"), "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["pair", "A", "B", "status", "seconds", "error"] + keys)
+        for r in results:
+            A, B = r["pair"].split("__", 1)
+            w.writerow([r["pair"], A, B, r["status"], f"{r['seconds']:.3f}", r["error"]] +
+                       [r["metrics"].get(k, "") for k in keys])
+    counts = {s: sum(r["status"] == s for r in results) for s in ("ok", "failed", "skipped")}
+    totals = {"method": a.method, "pairs": len(results), **counts, "seconds": seconds,
+              "preparations": sum(1 for p in preps.values() if p.get("prepared")),
+              "preparations_reused": sum(1 for p in preps.values() if not p.get("prepared")),
+              # BIM's per-surface stage: once per shape and worker process (kept in memory)
+              "bim_preparations": sum(len(r.get("bim_prepared", [])) for r in results),
+              "shapes": {n: {k: p[k] for k in ("status", "error", "seconds", "prepared")} for n, p in preps.items()}}
+    with open(os.path.join(out, "summary.json"), "w") as f:
+        json.dump(totals, f, indent=1)
+    write_html(out, a, results, keys, totals)
+    return totals
+
+
+def write_html(out, a, results, keys, t):
+    colour = {"ok": "#dfd", "failed": "#fdd", "skipped": "#eee"}
+    rows = []
+    for r in results:
+        cells = [f'<a href="{html.escape(r["pair"])}/report.json">{html.escape(r["pair"])}</a>'
+                 if r["status"] != "failed" else html.escape(r["pair"]),
+                 r["status"], f"{r['seconds']:.1f}", html.escape(r["error"])]
+        cells += [html.escape(f"{r['metrics'][k]:.4g}" if isinstance(r["metrics"].get(k), float)
+                              else str(r["metrics"].get(k, ""))) for k in keys]
+        rows.append(f'<tr style="background:{colour[r["status"]]}">' + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
+    head = "".join(f"<th>{html.escape(h)}</th>" for h in ["pair", "status", "seconds", "error"] + keys)
+    text = (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>shapemap batch</title>"
+            f"<style>body{{font-family:sans-serif}}td,th{{padding:2px 8px;border-bottom:1px solid #ccc}}</style>"
+            f"</head><body><h1>shapemap batch: {html.escape(a.method)}</h1>"
+            f"<p>{t['pairs']} pairs: {t['ok']} ok, {t['failed']} failed, {t['skipped']} skipped; "
+            f"{t['seconds']:.1f} s; {t['preparations']} shape preparations "
+            f"({t['preparations_reused']} reused from an earlier run); "
+            f"{t['bim_preparations']} BIM per-surface preparations</p>"
+            f"<table><tr>{head}</tr>{''.join(rows)}</table></body></html>\n")
+    with open(os.path.join(out, "summary.html"), "w") as f:
+        f.write(text)
+
+
+def main(argv=None):
+    a = parse_args(sys.argv[1:] if argv is None else argv)
+    paths = {}
+    for s in a.shapes:
+        n = shape_name(s)
+        if n in paths:
+            print(f"shapemap: error: {s}: two shapes named {n}", file=sys.stderr)
+            return 2
+        paths[n] = os.path.abspath(s)
+    try:
+        pairs = read_pairs(a.pairs, list(paths))
+    except (OSError, ValueError) as e:
+        print(f"shapemap: error: {e}", file=sys.stderr)
+        return 2
+    out = os.path.abspath(a.output)
+    os.makedirs(os.path.join(out, "shapes"), exist_ok=True)
+    t0 = time.perf_counter()
+    progress = Progress(len(pairs), a.quiet)
+    results, preps = run_batch(a, paths, pairs, progress)
+    t = write_summary(out, a, results, preps, time.perf_counter() - t0)
+    if not a.quiet:
+        print(f"batch: {t['pairs']} pairs, {t['ok']} ok, {t['failed']} failed, {t['skipped']} skipped; "
+              f"{t['preparations']} shape preparations, {t['bim_preparations']} BIM preparations; "
+              f"{t['seconds']:.1f} s -> {out}/summary.html",
+              file=sys.stderr)
+    return 1 if t["failed"] else 0
+
+
+if __name__ == "__main__":
+    # The tasks must belong to shapemap.batch (importable on the workers), not to __main__.
+    from shapemap.batch import main as batch_main
+    sys.exit(batch_main())

@@ -1,0 +1,164 @@
+# The Python API on a small generated pair: maps, Map methods against brute force, metrics,
+# errors, and the same map from the CLI and the module.
+import json
+import os
+
+import numpy as np
+import pytest
+
+import shapemap
+
+
+@pytest.fixture(scope="module")
+def surfaces(pair):
+    return shapemap.read_surface(pair / "A.obj"), shapemap.read_surface(pair / "B.obj")
+
+
+@pytest.fixture(scope="module")
+def bim(surfaces):
+    (VA, FA), (VB, FB) = surfaces
+    return shapemap.surface_map(VA, FA, VB, FB, method="bim", symmetric=True, seed=1)
+
+
+def test_read(surfaces, pair):
+    (VA, FA), _ = surfaces
+    assert VA.dtype == np.float64 and VA.shape[1] == 3 and FA.shape[1] == 3
+    V, T = shapemap.read_volume(pair / "A.vtk")
+    assert T.shape[1] == 4 and T.max() < len(V)
+    m = shapemap.read_map(pair / "truth_AB.txt")
+    assert len(m) == len(VA) and m.bary.shape == (len(VA), 3)
+
+
+def test_surface_map_bim(bim, surfaces, pair):
+    (VA, FA), (VB, FB) = surfaces
+    assert len(bim) == len(VA) and bim.reverse is not None and len(bim.reverse) == len(VB)
+    assert bim.reverse.reverse is bim
+    assert np.allclose(bim.bary.sum(axis=1), 1)
+    assert bim.report["method"] == "bim" and "AB" in bim.report["bim"]
+    truth = shapemap.read_map(pair / "truth_AB.txt")
+    ev = shapemap.evaluate_surface(VA, FA, VB, FB, bim, truth=truth)
+    assert ev["geodesic_within_0_1"] > 0.5
+    assert "reversibility" in ev
+
+
+def test_points_sparse_vertex_map(bim, surfaces):
+    (VA, FA), (VB, FB) = surfaces
+    P = bim.points()
+    brute = np.array([sum(bim.bary[i, j] * VB[FB[bim.element[i], j]] for j in range(3)) for i in range(len(VA))])
+    assert np.allclose(P, brute)
+    S = bim.to_sparse()
+    assert S.shape == (len(VA), len(VB)) and S.format == "csr"
+    assert np.allclose(S @ VB, P)
+    vm = bim.to_vertex_map()
+    d = ((P[:, None, :] - VB[None, :, :]) ** 2).sum(axis=2)
+    assert np.allclose(d[np.arange(len(VA)), vm], d.min(axis=1))
+
+
+def test_write_read_map_roundtrip(bim, tmp_path):
+    shapemap.write_map(tmp_path / "m.txt", bim)
+    back = shapemap.read_map(tmp_path / "m.txt")
+    assert np.array_equal(back.element, bim.element) and np.allclose(back.bary, bim.bary, atol=1e-12)
+
+
+def test_cli_and_module_same_map(cli, pair, bim, tmp_path):
+    cli("--seed", 1, "surface-map", pair / "A.obj", pair / "B.obj", "--symmetric", "-o", tmp_path / "out")
+    shapemap.write_map(tmp_path / "py_AB.txt", bim)
+    shapemap.write_map(tmp_path / "py_BA.txt", bim.reverse)
+    for d in ("AB", "BA"):
+        assert (tmp_path / "out" / f"map_{d}.txt").read_text() == (tmp_path / f"py_{d}.txt").read_text(), d
+    rep = json.loads((tmp_path / "out" / "report.json").read_text())
+    assert rep["metrics"]["AB"] == pytest.approx(bim.report["metrics"]["AB"])
+
+
+def test_bad_input_raises_one_line(surfaces, tmp_path):
+    (VA, FA), (VB, FB) = surfaces
+    bad = FA.copy()
+    bad[0, 0] = len(VA) + 5
+    with pytest.raises(ValueError) as e:
+        shapemap.surface_map(VA, bad, VB, FB)
+    assert "\n" not in str(e.value) and str(e.value)
+    with pytest.raises(ValueError, match="no-such.obj"):
+        shapemap.read_surface(tmp_path / "no-such.obj")
+    with pytest.raises(ValueError):
+        shapemap.surface_map(VA, FA, VB, FB, method="nope")
+    # A hole: repaired by default (a note in the report), refused with strict=True.
+    with pytest.raises(ValueError, match="^A: .*strict"):
+        shapemap.surface_map(VA, FA[:-10], VB, FB, strict=True)
+
+
+def test_progress_callback(surfaces):
+    (VA, FA), (VB, FB) = surfaces
+    stages = []
+    shapemap.surface_map(VA, FA, VB, FB, samples=64, candidates=200,
+                         progress=lambda s, f: stages.append((s, f)))
+    assert stages and all(0 <= f <= 1 for _, f in stages)
+
+
+def test_volume_map_and_evaluate(surfaces):
+    # Surfaces in (3 columns): tetrahedralized first, as `shapemap volume-map A.obj B.obj`.
+    (VA, FA), (VB, FB) = surfaces
+    m = shapemap.volume_map(VA, FA, VB, FB, tets=1000, auto_surface_map="bim", max_iterations=3)
+    (WA, TA), (WB, TB) = m.mesh_A, m.mesh_B
+    assert TA.shape[1] == 4 and len(m) == len(WA) and m.bary.shape[1] == 4 and len(m.reverse) == len(WB)
+    assert np.allclose(m.to_sparse() @ WB, m.points())
+    ev = shapemap.evaluate_volume(WA, TA, WB, TB, m)
+    assert ev["num_tets"] == len(TA) and "n_inv" in ev
+    assert m.report["metrics"]["AB"]["n_inv"] == m.report["metrics"]["AB"]["n_inv"]
+    assert m.report["inputs"]["A_tetrahedralized"]
+
+
+def test_ball_and_register(pair):
+    V, T = shapemap.read_volume(pair / "A.vtk")
+    f, rep = shapemap.ball(V, T)
+    assert f.shape == V.shape and np.linalg.norm(f, axis=1).max() < 1.01
+    ev = shapemap.evaluate_ball(V, T, f)
+    assert ev["num_tets"] == len(T) and ev == pytest.approx(rep["metrics"])
+
+
+def test_tetrahedralize(surfaces):
+    (VA, FA), _ = surfaces
+    V, T = shapemap.tetrahedralize(VA, FA, tets=800)
+    assert T.shape[1] == 4 and 200 < len(T) < 4000
+
+
+def _boundary_vertices(T):
+    faces = np.sort(np.concatenate([T[:, [0, 1, 2]], T[:, [0, 1, 3]], T[:, [0, 2, 3]], T[:, [1, 2, 3]]]), axis=1)
+    u, c = np.unique(faces, axis=0, return_counts=True)
+    return np.unique(u[c == 1])
+
+
+def test_cli_and_module_same_volume_map(cli, pair, tmp_path):
+    VA, TA = shapemap.read_volume(pair / "A.vtk")
+    VB, TB = shapemap.read_volume(pair / "B.vtk")
+    # Landmarks: 8 boundary vertices of A and the boundary vertices of B nearest their true images.
+    bA, bB = _boundary_vertices(TA), _boundary_vertices(TB)
+    LA = bA[:: len(bA) // 8][:8]
+    P = shapemap.read_map(pair / "truth_vol_AB.txt", VB, TB).points()[LA]
+    LB = bB[((P[:, None, :] - VB[bB][None, :, :]) ** 2).sum(axis=2).argmin(axis=1)]
+    np.savetxt(tmp_path / "LA.txt", LA, fmt="%d")
+    np.savetxt(tmp_path / "LB.txt", LB, fmt="%d")
+    cli("--seed", 1, "volume-map", pair / "A.vtk", pair / "B.vtk", "--landmarks", tmp_path / "LA.txt",
+        tmp_path / "LB.txt", "--max-iterations", 3, "-o", tmp_path / "out")
+    m = shapemap.volume_map(VA, TA, VB, TB, init="landmarks", landmarks=(LA, LB), max_iterations=3, seed=1)
+    shapemap.write_map(tmp_path / "py_AB.txt", m)
+    shapemap.write_map(tmp_path / "py_BA.txt", m.reverse)
+    for d in ("AB", "BA"):
+        assert (tmp_path / "out" / f"map_{d}.txt").read_text() == (tmp_path / f"py_{d}.txt").read_text(), d
+
+
+def test_prepared_surfaces_give_the_same_map(surfaces, bim):
+    (VA, FA), (VB, FB) = surfaces
+    pA = shapemap.prepare_surface(VA, FA, name="A")
+    pB = shapemap.prepare_surface(VB, FB, name="B")
+    m = shapemap.surface_map(VA, FA, VB, FB, symmetric=True, prepared=(pA, pB))
+    assert np.array_equal(m.element, bim.element) and np.array_equal(m.bary, bim.bary)
+    assert np.array_equal(m.reverse.element, bim.reverse.element) and np.array_equal(m.reverse.bary, bim.reverse.bary)
+    assert m.report["bim"]["stages"]["A/sampling_geodesics"] == 0  # not done again
+
+
+def test_prepared_surfaces_elastic_same_map(surfaces):
+    (VA, FA), (VB, FB) = surfaces
+    prepared = (shapemap.prepare_surface(VA, FA), shapemap.prepare_surface(VB, FB))
+    a = shapemap.surface_map(VA, FA, VB, FB, method="elastic", elastic_iterations=3)
+    b = shapemap.surface_map(VA, FA, VB, FB, method="elastic", elastic_iterations=3, prepared=prepared)
+    assert np.array_equal(a.element, b.element) and np.array_equal(a.bary, b.bary)

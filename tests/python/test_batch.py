@@ -1,0 +1,65 @@
+# shapemap batch on a local Dask cluster of 2 workers: 3 generated shapes, a rerun that
+# skips every pair, then a batch with a broken file whose pairs fail alone.
+import csv
+import json
+import subprocess
+
+import pytest
+
+
+def batch(cli, *args):
+    return subprocess.run([cli.exe, "--quiet", "batch", *map(str, args)], capture_output=True, text=True)
+
+
+def rows(out):
+    with open(out / "summary.csv", newline="") as f:
+        return {r["pair"]: r for r in csv.DictReader(f)}
+
+
+@pytest.fixture(scope="module")
+def shapes(cli, tmp_path_factory):
+    d = tmp_path_factory.mktemp("shapes")
+    for k, s in enumerate(("sphere", "ellipsoid", "creature", "cube-sphere")):
+        cli("generate", "--shape", s, "--vertices", 500, "--seed", k + 1, "-o", d / f"s{k}.obj")
+    (d / "broken.obj").write_text("v 0 0 0\nv 1 0 0\nf 1 2 7\n")
+    return d
+
+
+def test_batch_rerun_and_failures(cli, shapes, tmp_path):
+    out = tmp_path / "out"
+    three = [shapes / f"s{k}.obj" for k in range(3)]
+    r = batch(cli, *three, "-o", out, "--method", "bim", "--workers", 2)
+    assert r.returncode == 0, r.stderr
+    got = rows(out)
+    assert sorted(got) == ["s0__s1", "s0__s2", "s1__s2"]
+    assert all(v["status"] == "ok" for v in got.values())
+    for p in got:
+        for f in ("map_AB.txt", "A_on_B.obj", "report.json"):
+            assert (out / p / f).exists(), (p, f)
+    assert float(got["s0__s1"]["conformal_distortion_mean"]) >= 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["preparations"] == 3  # once per shape, not once per pair
+    assert 3 <= summary["bim_preparations"] <= 6  # BIM's stage: once per shape and worker
+    assert (out / "summary.html").exists()
+
+    # A rerun skips the finished pairs (no cluster, no preparation).
+    r = batch(cli, *three, "-o", out, "--method", "bim", "--workers", 2)
+    assert r.returncode == 0, r.stderr
+    assert all(v["status"] == "skipped" for v in rows(out).values())
+
+    # A broken file: its pairs fail with its error, the new good pairs go on; exit 1.
+    r = batch(cli, *three, shapes / "s3.obj", shapes / "broken.obj", "-o", out, "--method", "bim",
+              "--workers", 2)
+    assert r.returncode == 1, r.stderr
+    got = rows(out)
+    assert len(got) == 10
+    for p, v in got.items():
+        if "broken" in p:
+            assert v["status"] == "failed" and "broken.obj" in v["error"], v
+            assert not (out / p).exists()
+        elif "s3" in p:
+            assert v["status"] == "ok", v
+        else:
+            assert v["status"] == "skipped", v
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["preparations"] == 2 and summary["preparations_reused"] == 3

@@ -1,0 +1,60 @@
+// The volume-map pipeline's pieces that moved out of the CLI: volume inputs from surfaces,
+// landmarks carried from a surface to its tet mesh (against brute force), input errors.
+#include "shapemap/error.h"
+#include "shapemap/generate.h"
+#include "shapemap/surface/surface_map_pipeline.h"
+#include "shapemap/volume/volume_map_pipeline.h"
+#include <gtest/gtest.h>
+
+using namespace shapemap;
+
+TEST(VolumeMapPipeline, LandmarksGoToTheNearestBoundaryVertex) {
+  const TriMesh s = make_ellipsoid(600, Eigen::Vector3d(1.0, 0.7, 0.5));
+  const VolumeInput in = volume_input_from_surface(s, "ellipsoid", 1500, 1, false);
+  ASSERT_TRUE(in.from_surface);
+  const std::vector<int> marks = {0, 17, 123, 599};
+  const std::vector<int> got = carry_landmarks_to_volume(in, marks);
+  ASSERT_EQ(got.size(), marks.size());
+  const TetBoundary bd = boundary_surface(in.mesh);
+  for (size_t k = 0; k < marks.size(); ++k) {
+    double best = 1e300;
+    for (int i = 0; i < bd.to_volume.size(); ++i)
+      best = std::min(best, (in.mesh.V.row(bd.to_volume(i)) - s.V.row(marks[k])).squaredNorm());
+    EXPECT_GE(bd.to_surface(got[k]), 0) << "not a boundary vertex";
+    EXPECT_DOUBLE_EQ((in.mesh.V.row(got[k]) - s.V.row(marks[k])).squaredNorm(), best);
+  }
+  EXPECT_THROW(carry_landmarks_to_volume(in, {int(s.V.rows())}), InputError);
+  // A tet-mesh input keeps its indices.
+  const VolumeInput tets = volume_input_from_tets(in.mesh, "tets");
+  EXPECT_EQ(carry_landmarks_to_volume(tets, marks), marks);
+}
+
+TEST(VolumeMapPipeline, BadRequestsAreInputErrors) {
+  const TriMesh s = make_sphere(500);
+  VolumeInput a = volume_input_from_surface(s, "a", 800, 1, false), b = a;
+  VolumeMapRequest req;
+  req.init = "nope";
+  EXPECT_THROW(run_volume_map(a, b, req), InputError);
+  req.init = "landmarks";
+  req.landmarks_A = {0, 1, 2};
+  req.landmarks_B = {0, 1};
+  EXPECT_THROW(run_volume_map(a, b, req), InputError);
+  req.init = "surface-map";
+  EXPECT_THROW(run_volume_map(a, b, req), InputError);
+}
+
+TEST(SurfaceMapPipeline, InvertingTheIdentityGivesTheIdentity) {
+  const TriMesh s = make_sphere(500);
+  BarycentricMap id;
+  id.elem.resize(s.num_vertices());
+  id.bary = Eigen::MatrixXd::Zero(s.num_vertices(), 3);
+  for (int f = 0; f < s.num_faces(); ++f)
+    for (int j = 0; j < 3; ++j) {
+      id.elem(s.F(f, j)) = f;
+      id.bary.row(s.F(f, j)).setZero();
+      id.bary(s.F(f, j), j) = 1;
+    }
+  const BarycentricMap inv = invert_surface_map(id, s, s);
+  const Eigen::MatrixXd X = map_positions(inv, s.V, s.F);
+  EXPECT_LT((X - s.V).rowwise().norm().maxCoeff(), 1e-9);
+}
