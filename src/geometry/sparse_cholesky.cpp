@@ -5,12 +5,24 @@
 // the factor during cholmod_solve, and a cholmod_common per call makes concurrent
 // solve() calls on one factor thread-safe (HeatGeodesics::distances relies on it).
 // compute()/factorize() must not run concurrently with anything else on the object.
+// Supernodal factorizations and solves call BLAS, and the serial OpenBLAS that
+// scripts/install-deps installs is not safe to call from two threads at once (a BIM test
+// with 8 threads gave a different map in 3 runs of 40; never with the reference BLAS):
+// those calls are serialized across all objects. Simplicial ones use no BLAS and run
+// concurrently.
 #include "shapemap/geometry/sparse_cholesky.h"
 #include "shapemap/error.h"
 #include <Eigen/CholmodSupport>
+#include <mutex>
 #include <string>
 
 namespace shapemap {
+namespace {
+std::mutex& blas_mutex() {
+  static std::mutex m;
+  return m;
+}
+}  // namespace
 
 struct SparseCholesky::Impl {
   cholmod_common common;
@@ -56,7 +68,11 @@ struct SparseCholesky::Impl {
     }
     if (!numeric_too) return;
     numeric = false;
-    cholmod_factorize(&view, factor, &common);
+    {
+      std::unique_lock<std::mutex> lock(blas_mutex(), std::defer_lock);
+      if (common.supernodal != CHOLMOD_SIMPLICIAL) lock.lock();
+      cholmod_factorize(&view, factor, &common);
+    }
     if (common.status == CHOLMOD_NOT_POSDEF || factor->minor < factor->n) {
       // The analysis stays (same pattern, e.g. a shifted matrix, can be factorized next).
       throw Error("SparseCholesky: matrix is not positive definite (failed at column " +
@@ -83,7 +99,12 @@ struct SparseCholesky::Impl {
     b.z = nullptr;
     b.xtype = CHOLMOD_REAL;
     b.dtype = CHOLMOD_DOUBLE;
-    cholmod_dense* x = cholmod_solve(CHOLMOD_A, factor, &b, &c);
+    cholmod_dense* x = nullptr;
+    {
+      std::unique_lock<std::mutex> lock(blas_mutex(), std::defer_lock);
+      if (factor->is_super) lock.lock();
+      x = cholmod_solve(CHOLMOD_A, factor, &b, &c);
+    }
     if (!x) {
       const int status = c.status;
       cholmod_finish(&c);

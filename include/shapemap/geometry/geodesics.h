@@ -24,7 +24,10 @@ class HeatGeodesics {
   Eigen::MatrixXd V_;
   Eigen::MatrixXi F_;
   Eigen::VectorXd mass_;
-  SparseCholesky heat_, poisson_;  // (M + tL), L + eps*M
+  // Simplicial: distances() solves on both factors from several threads at once, and the
+  // supernodal solve calls BLAS, which Debian's serial OpenBLAS does not make thread-safe
+  // (measured: 3 of 40 runs of a BIM test with 8 threads gave another map).
+  SparseCholesky heat_{SparseCholesky::Method::Simplicial}, poisson_{SparseCholesky::Method::Simplicial};  // (M + tL), L + eps*M
   // per-face gradient operator data
   Eigen::MatrixXd grad_[3];  // m×3: gradient of the hat function of corner j in face f
   Eigen::VectorXd area_;
