@@ -281,6 +281,20 @@ void add_volume_map_options(CLI::App* app, VolumeMapArgs& a) {
                     "Landing: factor on gamma per round")
       ->capture_default_str()
       ->check(CLI::Range(1.0, 100.0));
+  app->add_option("--land-newton-iterations", a.opt.land_newton_iterations,
+                    "Landing: Newton steps per gamma round and per relaxation")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 200));
+  app->add_option("--land-passes", a.opt.land_passes,
+                    "Landing with the barrier: passes that relax the interior and retry the boundary "
+                    "vertices left off the target")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 20));
+  app->add_option("--land-barrier", a.opt.land_barrier_floor,
+                    "Landing: log barrier on det J below this, so that no tet positive at its start "
+                    "turns over (ours; 0 = off)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1.0));
   app->add_flag("--boundary-to-boundary", a.opt.boundary_to_boundary,
                   "Hard boundary constraint in the P-step (Sec. 5.2)");
 

@@ -22,6 +22,7 @@
 #include "shapemap/mesh.h"
 #include "shapemap/optim/block_hessian.h"
 #include "shapemap/progress.h"
+#include "shapemap/volume/inversion_barrier.h"
 #include "shapemap/volume/sarap.h"
 #include <memory>
 #include <string>
@@ -91,6 +92,15 @@ struct SymmetricVolumeMapOptions {
   // Landing's repair: boundary vertices of inverted tets slide along dM_j, held near their
   // starting points by a spring this many times softer than the one to dM_j (ours).
   double land_slide_anchor = 0.03;
+  // Ours: the landing keeps every tet that is positive when it starts positive: the clamped
+  // log barrier of inversion_barrier.h on det J below this floor is added to Eq. 25, the
+  // Newton line search rejects a step that turns a tet over, and the projection puts a
+  // boundary vertex on dM_j, or just inside M_j, only where its tets stay positive (vertices
+  // that cannot are located, i.e. snapped, at the end). 0 = off (the landing before).
+  double land_barrier_floor = 0.1;
+  // With the barrier: passes in which the interior and the boundary vertices that could not
+  // be put on dM_j relax (gamma at its last continuation value), then try again (ours).
+  int land_passes = 3;
   bool fix_boundary_first = true;  // Algorithm 1 lines 6-10 (stage 2): boundary of X fixed,
                                    // boundary rows of P restored each iteration
   bool boundary_to_boundary = false;  // Sec. 5.2: hard constraint P in P*_ij (boundary rows
@@ -112,6 +122,7 @@ struct SymmetricMapStage {
                                              // evaluations, Hessian assembly, factorization,
                                              // solves
   int anderson_accepted = 0, anderson_rejected = 0;  // accelerated points kept / undone
+  int land_unprojected = 0;  // landing: boundary vertices put inside M_j or left, not on dM_j
   std::string stop_reason;   // "gradient", "decrease", "iterations" (stages 2, 4)
   std::vector<double> energy_history, gradient_history;  // per outer iteration
 };
@@ -189,7 +200,7 @@ class DirectionalEnergy {
  public:
   struct Terms {
     double arap = 0, reversibility = 0, projection_forward = 0, projection_backward = 0,
-           auxiliary = 0, total = 0;  // unweighted terms, total = weighted sum
+           auxiliary = 0, barrier = 0, total = 0;  // unweighted terms, total = weighted sum
   };
   DirectionalEnergy(const TetMesh& Mi, const TetMesh& Mj);
   void set_weights(double alpha, double beta, double gamma, double backward_scale = 1.0);
@@ -199,6 +210,9 @@ class DirectionalEnergy {
   double backward_scale() const { return bscale_; }
   // P_ij: n_i rows -> tets of M_j; P_ji: n_j rows -> tets of M_i.
   void set_maps(const BarycentricMap& P_ij, const BarycentricMap& P_ji);
+  // Adds the inversion barrier (landing stage, inversion_barrier.h) to Eq. 25 with weight
+  // 1, or removes it (nullptr). Kept by pointer: the caller owns it.
+  void set_barrier(const InversionBarrier* barrier) { barrier_ = barrier; }
   // Eq. 25 (X_ij part). X: n_i×3; grad n_i×3 if non-null.
   double evaluate(const Eigen::MatrixXd& X, Eigen::MatrixXd* grad = nullptr,
                   Terms* terms = nullptr) const;
@@ -226,6 +240,7 @@ class DirectionalEnergy {
   double ci_ = 1, cj_ = 1, si_ = 1, sj_ = 1;
   double alpha_ = 0.5, beta_ = 0.25, gamma_ = 25, bscale_ = 1;
   Eigen::MatrixXi Fi_vol_;           // boundary faces of M_i in volume numbering
+  const InversionBarrier* barrier_ = nullptr;
   ClosestPoint3 target_boundary_;    // dM_j (static)
   mutable ClosestPoint3 mapped_boundary_;  // dF_i(X): refit per evaluation
   mutable bool mapped_built_ = false;
