@@ -191,7 +191,4 @@ void write_reports(const OutputDir& out, const nlohmann::json& report, const std
                    const std::vector<ReportFigure>& figures = {}, const ViewerData* viewer = nullptr,
                    const GlobalOptions* g = nullptr);
 
-// For subcommands whose method is not built yet: message, exit 1.
-int not_built(const std::string& what);
-
 }  // namespace shapemap::cli
