@@ -236,19 +236,21 @@ int run_demo(const DemoArgs& a, const GlobalOptions& g) {
   return failures == 0 ? 0 : 1;
 }
 
+CLI::App* add_demo_command(CLI::App& parent, DemoArgs& a) {
+  CLI::App* app =
+      parent.add_subcommand("demo", "The main job on built-in generated shapes (writes maps, pictures, reports)");
+  app->add_option("-o,--output", a.out, "Output folder")->capture_default_str();
+  app->add_option("--vertices", a.vertices, "Vertices per generated surface")->check(CLI::Range(500, 50000));
+  app->add_option("--tets", a.tets, "Tets per generated volume")->check(CLI::Range(1000, 500000));
+  app->add_flag("--index-only", a.index_only,
+                "Run nothing: rewrite OUT/index.html (and summary.txt) from the stage folders already in OUT");
+  return app;
+}
+
 }  // namespace
 
 Command register_demo(CLI::App& app, GlobalOptions& g) {
-  Command c;
-  auto a = std::make_shared<DemoArgs>();
-  c.app = app.add_subcommand("demo", "The main job on built-in generated shapes (writes maps, pictures, reports)");
-  c.app->add_option("-o,--output", a->out, "Output folder")->capture_default_str();
-  c.app->add_option("--vertices", a->vertices, "Vertices per generated surface")->check(CLI::Range(500, 50000));
-  c.app->add_option("--tets", a->tets, "Tets per generated volume")->check(CLI::Range(1000, 500000));
-  c.app->add_flag("--index-only", a->index_only,
-                  "Run nothing: rewrite OUT/index.html (and summary.txt) from the stage folders already in OUT");
-  c.run = [a, &g] { return run_demo(*a, g); };
-  return c;
+  return args_command<DemoArgs>(app, g, add_demo_command, run_demo);
 }
 
 }  // namespace shapemap::cli

@@ -157,28 +157,31 @@ int run_pair(const GenArgs& a, std::uint64_t seed, const GlobalOptions& g) {
   return 0;
 }
 
+int run_generate(const GenArgs& a, const GlobalOptions& g) {
+  std::uint64_t seed = a.seed_opt->count() ? a.seed : g.seed;
+  return a.shape == "pair" ? run_pair(a, seed, g) : run_single(a, seed, g);
+}
+
+CLI::App* add_generate_command(CLI::App& parent, GenArgs& a) {
+  CLI::App* app = parent.add_subcommand("generate", "Generate shapes and pairs with ground truth");
+  app->add_option("-o,--output", a.output, "Output file (single shape) or folder")->required();
+  a.seed_opt = app->add_option("--seed", a.seed, "Random seed (default: the global --seed)");
+  app->add_option("--shape", a.shape, "creature|sphere|ellipsoid|torus|cube-sphere|pair (default pair)")
+      ->check(CLI::IsMember({"creature", "sphere", "ellipsoid", "torus", "cube-sphere", "pair"}));
+  app->add_option("--kind", a.kind, "Pair kind: near-isometric|non-isometric")
+      ->check(CLI::IsMember({"near-isometric", "non-isometric"}));
+  app->add_option("--vertices", a.vertices, "Approximate vertex count (default 5000)")
+      ->check(CLI::Range(500, 200000));
+  app->add_flag("--tets", a.tets, "Also tetrahedralize (pairs: A.vtk, B.vtk, truth_vol_AB.txt)");
+  app->add_option("--tet-count", a.tet_count, "Approximate tets per volume with --tets (default 20000)")
+      ->check(CLI::Range(100, 5000000));
+  return app;
+}
+
 }  // namespace
 
 Command register_generate(CLI::App& app, GlobalOptions& g) {
-  Command c;
-  c.app = app.add_subcommand("generate", "Generate shapes and pairs with ground truth");
-  auto a = std::make_shared<GenArgs>();
-  c.app->add_option("-o,--output", a->output, "Output file (single shape) or folder")->required();
-  a->seed_opt = c.app->add_option("--seed", a->seed, "Random seed (default: the global --seed)");
-  c.app->add_option("--shape", a->shape, "creature|sphere|ellipsoid|torus|cube-sphere|pair (default pair)")
-      ->check(CLI::IsMember({"creature", "sphere", "ellipsoid", "torus", "cube-sphere", "pair"}));
-  c.app->add_option("--kind", a->kind, "Pair kind: near-isometric|non-isometric")
-      ->check(CLI::IsMember({"near-isometric", "non-isometric"}));
-  c.app->add_option("--vertices", a->vertices, "Approximate vertex count (default 5000)")
-      ->check(CLI::Range(500, 200000));
-  c.app->add_flag("--tets", a->tets, "Also tetrahedralize (pairs: A.vtk, B.vtk, truth_vol_AB.txt)");
-  c.app->add_option("--tet-count", a->tet_count, "Approximate tets per volume with --tets (default 20000)")
-      ->check(CLI::Range(100, 5000000));
-  c.run = [a, &g] {
-    std::uint64_t seed = a->seed_opt->count() ? a->seed : g.seed;
-    return a->shape == "pair" ? run_pair(*a, seed, g) : run_single(*a, seed, g);
-  };
-  return c;
+  return args_command<GenArgs>(app, g, add_generate_command, run_generate);
 }
 
 }  // namespace shapemap::cli

@@ -144,10 +144,9 @@ int run_register(RegisterArgs& a, const GlobalOptions& g) {
   return 0;
 }
 
-void add_register_options(CLI::App* app, RegisterArgs& a) {
-  app->add_option("A", a.A, "Source: tet mesh or closed surface")->required();
-  app->add_option("B", a.B, "Target: tet mesh or closed surface")->required();
-  app->add_option("-o,--output", a.out, "Output folder")->required();
+CLI::App* add_register_command(CLI::App& parent, RegisterArgs& a) {
+  CLI::App* app = parent.add_subcommand("register", "Registration of two volumes through their ball parameterizations");
+  add_pair_options(app, a.A, a.B, a.out, "Source: tet mesh or closed surface", "Target: tet mesh or closed surface");
   app->add_option("--via", a.via, "Registration method (ball: Sec. 7 of the isovolumetric paper)")
       ->check(CLI::IsMember({"ball"}));
   app->add_option("--frames", a.frames, "Write K >= 2 linear-homotopy frames H(v, t) (Eq. 46)")
@@ -161,17 +160,13 @@ void add_register_options(CLI::App* app, RegisterArgs& a) {
                 "Procrustes rotations g_s against the raw coordinates v (Sec. 7) instead of the "
                 "volume-centred ones");
   add_ball_options(app, a.opt.ball);
+  return app;
 }
 
 }  // namespace
 
 Command register_register(CLI::App& app, GlobalOptions& g) {
-  Command c;
-  c.app = app.add_subcommand("register", "Registration of two volumes through their ball parameterizations");
-  auto a = std::make_shared<RegisterArgs>();
-  add_register_options(c.app, *a);
-  c.run = [a, &g] { return run_register(*a, g); };
-  return c;
+  return args_command<RegisterArgs>(app, g, add_register_command, run_register);
 }
 
 }  // namespace shapemap::cli

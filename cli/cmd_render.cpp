@@ -82,28 +82,29 @@ int run_render(const RenderArgs& a, const GlobalOptions& g) {
   return 0;
 }
 
+CLI::App* add_render_command(CLI::App& parent, RenderArgs& a) {
+  CLI::App* app = parent.add_subcommand("render", "PNG pictures of meshes and maps (headless software rasterizer)");
+  app->add_option("mesh", a.mesh, "Mesh to draw (surface or tet mesh; the source for maps)")->required();
+  app->add_option("-o,--output", a.out, "Output PNG")->required();
+  app->add_option("--mode", a.mode,
+                  "shaded | scalar (--scalar) | texture, normals (--map --target) | landmarks (--landmarks) | "
+                  "slices (--mapped A_on_B.vtk) | ball (--mapped ball.vtk)")
+      ->check(CLI::IsMember({"shaded", "scalar", "texture", "normals", "landmarks", "slices", "ball"}));
+  app->add_option("--scalar", a.scalar, "One value per vertex or per face, one per line");
+  app->add_option("--map", a.map, "Map file from mesh to --target (docs/formats.md)");
+  app->add_option("--target", a.target, "Target surface of --map");
+  app->add_option("--landmarks", a.landmarks, "Landmark file");
+  app->add_option("--mapped", a.mapped, "Tet mesh with the source connectivity and mapped positions");
+  app->add_option("--axis", a.axis, "Slicing axis for --mode slices (0, 1, 2)")->check(CLI::Range(0, 2));
+  app->add_option("--width", a.width, "Image width and height in pixels")->check(CLI::Range(16, 8192));
+  app->add_flag("--wireframe", a.wireframe, "Draw triangle edges");
+  return app;
+}
+
 }  // namespace
 
 Command register_render(CLI::App& app, GlobalOptions& g) {
-  Command c;
-  auto a = std::make_shared<RenderArgs>();
-  c.app = app.add_subcommand("render", "PNG pictures of meshes and maps (headless software rasterizer)");
-  c.app->add_option("mesh", a->mesh, "Mesh to draw (surface or tet mesh; the source for maps)")->required();
-  c.app->add_option("-o,--output", a->out, "Output PNG")->required();
-  c.app->add_option("--mode", a->mode,
-                    "shaded | scalar (--scalar) | texture, normals (--map --target) | landmarks (--landmarks) | "
-                    "slices (--mapped A_on_B.vtk) | ball (--mapped ball.vtk)")
-      ->check(CLI::IsMember({"shaded", "scalar", "texture", "normals", "landmarks", "slices", "ball"}));
-  c.app->add_option("--scalar", a->scalar, "One value per vertex or per face, one per line");
-  c.app->add_option("--map", a->map, "Map file from mesh to --target (docs/formats.md)");
-  c.app->add_option("--target", a->target, "Target surface of --map");
-  c.app->add_option("--landmarks", a->landmarks, "Landmark file");
-  c.app->add_option("--mapped", a->mapped, "Tet mesh with the source connectivity and mapped positions");
-  c.app->add_option("--axis", a->axis, "Slicing axis for --mode slices (0, 1, 2)")->check(CLI::Range(0, 2));
-  c.app->add_option("--width", a->width, "Image width and height in pixels")->check(CLI::Range(16, 8192));
-  c.app->add_flag("--wireframe", a->wireframe, "Draw triangle edges");
-  c.run = [a, &g] { return run_render(*a, g); };
-  return c;
+  return args_command<RenderArgs>(app, g, add_render_command, run_render);
 }
 
 }  // namespace shapemap::cli

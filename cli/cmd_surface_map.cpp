@@ -27,24 +27,17 @@ struct SurfaceMapArgs {
   std::string init = "bim";
   std::vector<std::string> landmarks;  // LA LB
   bool symmetric = false;
-  bool reverse_candidates = false;
-  // BIM options exposed on the command line (defaults from the paper, BIMOptions).
-  int max_features = 10;
-  int max_candidates = 10000;
-  int num_even = 256;
+  // --features, --candidates, --samples, --reverse-candidates; the rest as BIMOptions has them.
+  BIMOptions bim;
   ElasticSettings elastic;  // --elastic-* (surface_map_elastic.cpp)
   std::string truth_ab;     // --truth
 };
 
 BIMOptions bim_options(const SurfaceMapArgs& a, const GlobalOptions& g) {
-  BIMOptions o;
+  BIMOptions o = a.bim;
   o.seed = g.seed;
-  o.reverse_candidates = a.reverse_candidates;
   o.name_A = a.A;
   o.name_B = a.B;
-  o.max_features = a.max_features;
-  o.max_candidates = a.max_candidates;
-  o.num_even = a.num_even;
   return o;
 }
 
@@ -136,36 +129,37 @@ int run_surface_map_command(const SurfaceMapArgs& a, const GlobalOptions& g) {
   return 0;
 }
 
+CLI::App* add_surface_map_command(CLI::App& parent, SurfaceMapArgs& a) {
+  CLI::App* app =
+      parent.add_subcommand("surface-map", "Map between two closed genus-0 surfaces (BIM, elastic refinement)");
+  add_pair_options(app, a.A, a.B, a.out, "Source surface (.obj .off .ply .stl)", "Target surface");
+  app->add_option("--method", a.method, "bim (Blended Intrinsic Maps) or elastic (refinement)")
+      ->check(CLI::IsMember({"bim", "elastic"}));
+  app->add_option("--init", a.init,
+                  "elastic: initial map, 'bim', a map file (map_AB.txt format) or a folder with "
+                  "map_AB.txt [map_BA.txt]");
+  app->add_option("--landmarks", a.landmarks,
+                  "LA LB: corresponding landmark lists (one 0-based vertex index or one x y z point per line)")
+      ->expected(2);
+  app->add_flag("--symmetric", a.symmetric,
+                "BIM: also compute the map B -> A (the elastic bijective model always does; "
+                "not with --elastic-injective)");
+  app->add_flag("--reverse-candidates", a.bim.reverse_candidates,
+                "BIM with --symmetric (and elastic's BIM init): the direction with the less confident "
+                "blend takes the inverse of the other direction's blend");
+  app->add_option("--features", a.bim.max_features, "BIM: at most this many AGD feature points per surface")
+      ->check(CLI::Range(3, 30));
+  app->add_option("--candidates", a.bim.max_candidates, "BIM: at most this many candidate Möbius maps")
+      ->check(CLI::PositiveNumber);
+  app->add_option("--samples", a.bim.num_even, "BIM: |P_even| evenly spread samples")->check(CLI::Range(16, 4096));
+  add_elastic_options(app, a.elastic, a.truth_ab);
+  return app;
+}
+
 }  // namespace
 
 Command register_surface_map(CLI::App& app, GlobalOptions& g) {
-  Command c;
-  c.app = app.add_subcommand("surface-map", "Map between two closed genus-0 surfaces (BIM, elastic refinement)");
-  auto a = std::make_shared<SurfaceMapArgs>();
-  c.app->add_option("A", a->A, "Source surface (.obj .off .ply .stl)")->required();
-  c.app->add_option("B", a->B, "Target surface")->required();
-  c.app->add_option("-o,--output", a->out, "Output folder")->required();
-  c.app->add_option("--method", a->method, "bim (Blended Intrinsic Maps) or elastic (refinement)")
-      ->check(CLI::IsMember({"bim", "elastic"}));
-  c.app->add_option("--init", a->init, "elastic: initial map, 'bim', a map file (map_AB.txt format) or a folder with "
-                    "map_AB.txt [map_BA.txt]");
-  c.app->add_option("--landmarks", a->landmarks,
-                    "LA LB: corresponding landmark lists (one 0-based vertex index or one x y z point per line)")
-      ->expected(2);
-  c.app->add_flag("--symmetric", a->symmetric,
-                  "BIM: also compute the map B -> A (the elastic bijective model always does; "
-                  "not with --elastic-injective)");
-  c.app->add_flag("--reverse-candidates", a->reverse_candidates,
-                  "BIM with --symmetric (and elastic's BIM init): the direction with the less confident "
-                  "blend takes the inverse of the other direction's blend");
-  c.app->add_option("--features", a->max_features, "BIM: at most this many AGD feature points per surface")
-      ->check(CLI::Range(3, 30));
-  c.app->add_option("--candidates", a->max_candidates, "BIM: at most this many candidate Möbius maps")
-      ->check(CLI::PositiveNumber);
-  c.app->add_option("--samples", a->num_even, "BIM: |P_even| evenly spread samples")->check(CLI::Range(16, 4096));
-  add_elastic_options(c.app, a->elastic, a->truth_ab);
-  c.run = [a, &g] { return run_surface_map_command(*a, g); };
-  return c;
+  return args_command<SurfaceMapArgs>(app, g, add_surface_map_command, run_surface_map_command);
 }
 
 }  // namespace shapemap::cli

@@ -55,28 +55,28 @@ int run_tetrahedralize(const TetArgs& a, const GlobalOptions& g) {
   return 0;
 }
 
+CLI::App* add_tetrahedralize_command(CLI::App& parent, TetArgs& a) {
+  CLI::App* app = parent.add_subcommand("tetrahedralize", "Tetrahedralize a closed surface (CGAL Mesh_3)");
+  app->add_option("IN", a.input, "Closed surface (.obj .off .ply .stl)")->required();
+  app->add_option("-o,--output", a.output, "Tet mesh to write (.vtk .mesh .msh .node/.ele)")->required();
+  auto* el = app->add_option("--edge-length", a.edge_length, "Target tet edge length")->check(positive());
+  auto* nt = app->add_option("--tets", a.tets, "Approximate number of tets (default 30000)")
+                 ->check(in_range(1, kMaxTets));
+  el->excludes(nt);
+  app->add_flag("--no-optimize", a.no_optimize, "Skip ODT smoothing, sliver perturbation and exudation");
+  app->add_flag("--no-odt", a.no_odt, "Skip ODT smoothing (keep perturbation and exudation)");
+  app->add_flag("--no-features", a.no_features, "Do not protect sharp creases of the input");
+  app->add_flag("--split-chords", a.split_chords,
+                "Split interior edges that join two boundary vertices (for ball maps; docs/methods.md)");
+  app->add_option("--radius-edge", a.radius_edge, "Mesh_3 cell radius-edge ratio bound (default 3)")
+      ->check(CLI::Range(2.0, 10.0));
+  return app;
+}
+
 }  // namespace
 
 Command register_tetrahedralize(CLI::App& app, GlobalOptions& g) {
-  Command c;
-  c.app = app.add_subcommand("tetrahedralize", "Tetrahedralize a closed surface (CGAL Mesh_3)");
-  auto a = std::make_shared<TetArgs>();
-  c.app->add_option("IN", a->input, "Closed surface (.obj .off .ply .stl)")->required();
-  c.app->add_option("-o,--output", a->output, "Tet mesh to write (.vtk .mesh .msh .node/.ele)")->required();
-  auto* el = c.app->add_option("--edge-length", a->edge_length, "Target tet edge length")
-                 ->check(positive());
-  auto* nt = c.app->add_option("--tets", a->tets, "Approximate number of tets (default 30000)")
-                 ->check(in_range(1, kMaxTets));
-  el->excludes(nt);
-  c.app->add_flag("--no-optimize", a->no_optimize, "Skip ODT smoothing, sliver perturbation and exudation");
-  c.app->add_flag("--no-odt", a->no_odt, "Skip ODT smoothing (keep perturbation and exudation)");
-  c.app->add_flag("--no-features", a->no_features, "Do not protect sharp creases of the input");
-  c.app->add_flag("--split-chords", a->split_chords,
-                  "Split interior edges that join two boundary vertices (for ball maps; docs/methods.md)");
-  c.app->add_option("--radius-edge", a->radius_edge, "Mesh_3 cell radius-edge ratio bound (default 3)")
-      ->check(CLI::Range(2.0, 10.0));
-  c.run = [a, &g] { return run_tetrahedralize(*a, g); };
-  return c;
+  return args_command<TetArgs>(app, g, add_tetrahedralize_command, run_tetrahedralize);
 }
 
 }  // namespace shapemap::cli

@@ -88,7 +88,7 @@ std::string choose_init(const VolumeMapArgs& a) {
   return init;
 }
 
-void add_volume_map_options(CLI::App* app, VolumeMapArgs& a);
+CLI::App* add_volume_map_command(CLI::App& parent, VolumeMapArgs& a);
 
 void write_volume_map_outputs(const OutputDir& out, const VolumeInput& inA, const VolumeInput& inB,
                               const VolumeMapRun& run) {
@@ -180,20 +180,14 @@ int run_volume_map_command(VolumeMapArgs& a, const GlobalOptions& g) {
 }  // namespace
 
 Command register_volume_map(CLI::App& app, GlobalOptions& g) {
-  Command c;
-  c.app = app.add_subcommand("volume-map", "Symmetric volume map between two tetrahedral meshes");
-  auto a = std::make_shared<VolumeMapArgs>();
-  add_volume_map_options(c.app, *a);
-  c.run = [a, &g]() -> int { return run_volume_map_command(*a, g); };
-  return c;
+  return args_command<VolumeMapArgs>(app, g, add_volume_map_command, run_volume_map_command);
 }
 
 namespace {
 
-void add_volume_map_options(CLI::App* app, VolumeMapArgs& a) {
-  app->add_option("A", a.A, "Source: tet mesh or closed surface")->required();
-  app->add_option("B", a.B, "Target: tet mesh or closed surface")->required();
-  app->add_option("-o,--output", a.out, "Output folder")->required();
+CLI::App* add_volume_map_command(CLI::App& parent, VolumeMapArgs& a) {
+  CLI::App* app = parent.add_subcommand("volume-map", "Symmetric volume map between two tetrahedral meshes");
+  add_pair_options(app, a.A, a.B, a.out, "Source: tet mesh or closed surface", "Target: tet mesh or closed surface");
   app->add_option("--init", a.init, "Initialization: auto (surface map by BIM + elastic), "
                                        "ball (registration through ball maps, both ways), "
                                        "landmarks, surface-map (default: landmarks if given, "
@@ -297,7 +291,7 @@ void add_volume_map_options(CLI::App* app, VolumeMapArgs& a) {
       ->check(CLI::Range(0.0, 1.0));
   app->add_flag("--boundary-to-boundary", a.opt.boundary_to_boundary,
                   "Hard boundary constraint in the P-step (Sec. 5.2)");
-
+  return app;
 }
 
 }  // namespace

@@ -311,9 +311,4 @@ void write_reports(const OutputDir& out, const nlohmann::json& report, const std
   write_report_html(out.path("report.html"), title, report, figs, viewer != nullptr);
 }
 
-int not_built(const std::string& what) {
-  std::cerr << "shapemap: " << what << " is not built yet in this version\n";
-  return 1;
-}
-
 }  // namespace shapemap::cli

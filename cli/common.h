@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -138,6 +139,25 @@ struct Command {
   std::function<int()> run;
 };
 
+// The usual subcommand: `add_command(parent, args)` adds it with its options bound to one Args
+// object, kept alive by the closure that calls `run(args, g)` when the subcommand is selected.
+template <class Args, class AddCommand, class Run>
+Command args_command(CLI::App& parent, GlobalOptions& g, AddCommand add_command, Run run) {
+  Command c;
+  auto a = std::make_shared<Args>();
+  c.app = add_command(parent, *a);
+  c.run = [a, &g, run]() -> int { return run(*a, g); };
+  return c;
+}
+
+// The positional inputs A and B and the output folder of the commands that map A onto B.
+inline void add_pair_options(CLI::App* app, std::string& A, std::string& B, std::string& out,
+                             const std::string& about_A, const std::string& about_B) {
+  app->add_option("A", A, about_A)->required();
+  app->add_option("B", B, about_B)->required();
+  app->add_option("-o,--output", out, "Output folder")->required();
+}
+
 // Each cli/cmd_*.cpp defines one of these.
 Command register_surface_map(CLI::App& app, GlobalOptions& g);
 Command register_volume_map(CLI::App& app, GlobalOptions& g);
@@ -170,8 +190,5 @@ struct ReportFigure {
 void write_reports(const OutputDir& out, const nlohmann::json& report, const std::string& title,
                    const std::vector<ReportFigure>& figures = {}, const ViewerData* viewer = nullptr,
                    const GlobalOptions* g = nullptr);
-
-// For subcommands whose method is not built yet: message, exit 1.
-int not_built(const std::string& what);
 
 }  // namespace shapemap::cli

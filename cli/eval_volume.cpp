@@ -53,50 +53,55 @@ TetMesh read_tets(const std::string& path) {
   }
   return m;
 }
+
+struct VolumeEvalArgs {
+  std::string A, B, map, map_ba, truth, out;
+};
+
+CLI::App* add_evaluate_volume_command(CLI::App& evaluate, VolumeEvalArgs& a) {
+  CLI::App* app = evaluate.add_subcommand("volume", "Metrics of a volume map (Sec. 6.1 of symmetric volume maps)");
+  app->add_option("A", a.A, "Source tet mesh")->required();
+  app->add_option("B", a.B, "Target tet mesh")->required();
+  app->add_option("MAP_AB", a.map, "Map file A -> B")->required();
+  app->add_option("--map-ba", a.map_ba, "Map file B -> A (for E_R)");
+  app->add_option("--truth", a.truth, "Ground-truth images of A's vertices (map file or x y z lines)");
+  app->add_option("-o,--output", a.out, "Write the metrics JSON here (default: stdout)");
+  return app;
+}
+
+int run_evaluate_volume(const VolumeEvalArgs& a, const GlobalOptions& g) {
+  TetMesh A = read_tets(a.A), B = read_tets(a.B);
+  BarycentricMap m = read_map(a.map);
+  validate_map(m, A.num_vertices(), B.num_tets(), 4, a.map);
+  Eigen::MatrixXd X = map_positions(m, B.V, B.T);
+  Eigen::MatrixXd Xba, T;
+  if (!a.map_ba.empty()) {
+    BarycentricMap mb = read_map(a.map_ba);
+    validate_map(mb, B.num_vertices(), A.num_tets(), 4, a.map_ba);
+    Xba = map_positions(mb, A.V, A.T);
+  }
+  if (!a.truth.empty()) {
+    T = read_truth(a.truth, B);
+    if (T.rows() != A.num_vertices())
+      throw InputError(a.truth + ": " + std::to_string(T.rows()) + " rows for " +
+                       std::to_string(A.num_vertices()) + " vertices of A");
+  }
+  VolumeMapMetrics r = volume_map_metrics(A, B, X, a.map_ba.empty() ? nullptr : &m,
+                                          a.map_ba.empty() ? nullptr : &Xba,
+                                          a.truth.empty() ? nullptr : &T);
+  nlohmann::json j = report_header(g, "evaluate volume");
+  j["inputs"] = {{"A", a.A}, {"B", a.B}, {"map_AB", a.map}};
+  if (!a.map_ba.empty()) j["inputs"]["map_BA"] = a.map_ba;
+  if (!a.truth.empty()) j["inputs"]["truth"] = a.truth;
+  j["metrics"] = volume_metrics_json(r);
+  emit_evaluation(a.out, j);
+  return 0;
+}
+
 }  // namespace
 
 Command register_evaluate_volume(CLI::App& evaluate, GlobalOptions& g) {
-  Command c;
-  c.app = evaluate.add_subcommand("volume", "Metrics of a volume map (Sec. 6.1 of symmetric volume maps)");
-  struct Args {
-    std::string A, B, map, map_ba, truth, out;
-  };
-  auto a = std::make_shared<Args>();
-  c.app->add_option("A", a->A, "Source tet mesh")->required();
-  c.app->add_option("B", a->B, "Target tet mesh")->required();
-  c.app->add_option("MAP_AB", a->map, "Map file A -> B")->required();
-  c.app->add_option("--map-ba", a->map_ba, "Map file B -> A (for E_R)");
-  c.app->add_option("--truth", a->truth, "Ground-truth images of A's vertices (map file or x y z lines)");
-  c.app->add_option("-o,--output", a->out, "Write the metrics JSON here (default: stdout)");
-  c.run = [a, &g]() -> int {
-    TetMesh A = read_tets(a->A), B = read_tets(a->B);
-    BarycentricMap m = read_map(a->map);
-    validate_map(m, A.num_vertices(), B.num_tets(), 4, a->map);
-    Eigen::MatrixXd X = map_positions(m, B.V, B.T);
-    Eigen::MatrixXd Xba, T;
-    if (!a->map_ba.empty()) {
-      BarycentricMap mb = read_map(a->map_ba);
-      validate_map(mb, B.num_vertices(), A.num_tets(), 4, a->map_ba);
-      Xba = map_positions(mb, A.V, A.T);
-    }
-    if (!a->truth.empty()) {
-      T = read_truth(a->truth, B);
-      if (T.rows() != A.num_vertices())
-        throw InputError(a->truth + ": " + std::to_string(T.rows()) + " rows for " +
-                         std::to_string(A.num_vertices()) + " vertices of A");
-    }
-    VolumeMapMetrics r = volume_map_metrics(A, B, X, a->map_ba.empty() ? nullptr : &m,
-                                            a->map_ba.empty() ? nullptr : &Xba,
-                                            a->truth.empty() ? nullptr : &T);
-    nlohmann::json j = report_header(g, "evaluate volume");
-    j["inputs"] = {{"A", a->A}, {"B", a->B}, {"map_AB", a->map}};
-    if (!a->map_ba.empty()) j["inputs"]["map_BA"] = a->map_ba;
-    if (!a->truth.empty()) j["inputs"]["truth"] = a->truth;
-    j["metrics"] = volume_metrics_json(r);
-    emit_evaluation(a->out, j);
-    return 0;
-  };
-  return c;
+  return args_command<VolumeEvalArgs>(evaluate, g, add_evaluate_volume_command, run_evaluate_volume);
 }
 
 }  // namespace shapemap::cli

@@ -30,6 +30,12 @@ struct MeshReport {
 MeshReport check_surface(const TriMesh& mesh);
 MeshReport check_volume(const TetMesh& mesh);
 
+// "1 hole", "3 holes": the counts of the problems lines.
+std::string plural(long long n, const std::string& one, const std::string& many);
+// The problems lines of the surface defects the safe repairs fix (duplicate vertices,
+// degenerate faces, non-manifold edges and vertices), in that order, appended to `out`.
+void append_repairable_problems(const MeshReport& r, std::vector<std::string>& out);
+
 // Throws InputError("<name>: <problem>") unless the surface is closed, manifold,
 // connected, genus 0, finite, with at least min_vertices vertices. Orients the
 // faces consistently outward when they are consistent but inward.

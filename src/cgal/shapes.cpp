@@ -155,6 +155,17 @@ void orient_positive(TriMesh& m) {
   if (enclosed_volume(m.V, m.F) < 0) m.F.col(1).swap(m.F.col(2));
 }
 
+// The mesh of a point list and a triangle list, its faces turned outward.
+TriMesh oriented_mesh(const std::vector<Eigen::Vector3d>& pts, const std::vector<std::array<int, 3>>& faces) {
+  TriMesh m;
+  m.V.resize(pts.size(), 3);
+  for (size_t i = 0; i < pts.size(); ++i) m.V.row(i) = pts[i].transpose();
+  m.F.resize(faces.size(), 3);
+  for (size_t i = 0; i < faces.size(); ++i) m.F.row(i) << faces[i][0], faces[i][1], faces[i][2];
+  orient_positive(m);
+  return m;
+}
+
 // Geodesic icosahedron of frequency nf: each icosahedron face split into nf^2 triangles,
 // 10 nf^2 + 2 vertices, projected to the unit sphere.
 TriMesh geodesic_sphere(int nf) {
@@ -204,13 +215,7 @@ TriMesh geodesic_sphere(int nf) {
         }
       }
   }
-  TriMesh m;
-  m.V.resize(pts.size(), 3);
-  for (size_t i = 0; i < pts.size(); ++i) m.V.row(i) = pts[i].transpose();
-  m.F.resize(faces.size(), 3);
-  for (size_t i = 0; i < faces.size(); ++i) m.F.row(i) << faces[i][0], faces[i][1], faces[i][2];
-  orient_positive(m);
-  return m;
+  return oriented_mesh(pts, faces);
 }
 
 }  // namespace
@@ -292,13 +297,7 @@ TriMesh make_cube_sphere(int target_vertices) {
           }
         }
     }
-  TriMesh m;
-  m.V.resize(pts.size(), 3);
-  for (size_t i = 0; i < pts.size(); ++i) m.V.row(i) = pts[i].transpose();
-  m.F.resize(faces.size(), 3);
-  for (size_t i = 0; i < faces.size(); ++i) m.F.row(i) << faces[i][0], faces[i][1], faces[i][2];
-  orient_positive(m);
-  return m;
+  return oriented_mesh(pts, faces);
 }
 
 }  // namespace shapemap

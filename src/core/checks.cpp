@@ -18,10 +18,6 @@ namespace {
 // (longest edge)^2 for triangles, |6 vol| <= eps * (longest edge)^3 for tets.
 constexpr double kDegenerateEps = 1e-12;
 
-std::string plural(long long n, const std::string& one, const std::string& many) {
-  return std::to_string(n) + " " + (n == 1 ? one : many);
-}
-
 int count_unreferenced(const Eigen::MatrixXi& E, int n, std::vector<char>* used_out = nullptr) {
   std::vector<char> used(size_t(n), 0);
   for (Eigen::Index i = 0; i < E.size(); ++i) used[size_t(E.data()[i])] = 1;
@@ -198,8 +194,11 @@ int count_boundary_loops(const EdgeTopology& t, int n) {
   return loops;
 }
 
+// The checks surfaces and volumes share: matrix shapes, finite coordinates, indices in range;
+// then the counts of unreferenced vertices (`used` marks the others) and duplicate vertices.
+// False: the element loops cannot run.
 bool check_common(MeshReport& R, const Eigen::MatrixXd& V, const Eigen::MatrixXi& E, int arity,
-                  const char* elements) {
+                  const char* elements, std::vector<char>& used) {
   R.num_vertices = int(V.rows());
   R.num_elements = int(E.rows());
   if (V.cols() != 3 || E.cols() != arity) {
@@ -216,20 +215,34 @@ bool check_common(MeshReport& R, const Eigen::MatrixXd& V, const Eigen::MatrixXi
     return false;
   }
   if (E.rows() == 0) R.problems.push_back(std::string("no ") + elements);
+  R.unreferenced_vertices = count_unreferenced(E, int(V.rows()), &used);
+  if (R.finite) R.duplicate_vertices = count_duplicates(V);
   return true;
 }
 
 }  // namespace
 
+std::string plural(long long n, const std::string& one, const std::string& many) {
+  return std::to_string(n) + " " + (n == 1 ? one : many);
+}
+
+void append_repairable_problems(const MeshReport& R, std::vector<std::string>& P) {
+  if (R.duplicate_vertices)
+    P.push_back(plural(R.duplicate_vertices, "duplicate vertex", "duplicate vertices") + " (identical positions)");
+  if (R.degenerate_elements)
+    P.push_back(plural(R.degenerate_elements, "degenerate face", "degenerate faces") + " (zero area or repeated vertex)");
+  if (R.non_manifold_edges)
+    P.push_back(plural(R.non_manifold_edges, "non-manifold edge", "non-manifold edges") + " (more than 2 faces)");
+  if (R.non_manifold_vertices) P.push_back(plural(R.non_manifold_vertices, "non-manifold vertex", "non-manifold vertices"));
+}
+
 MeshReport check_surface(const TriMesh& mesh) {
   MeshReport R;
-  if (!check_common(R, mesh.V, mesh.F, 3, "faces")) return R;
+  std::vector<char> used;
+  if (!check_common(R, mesh.V, mesh.F, 3, "faces", used)) return R;
   const Eigen::MatrixXd& V = mesh.V;
   const Eigen::MatrixXi& F = mesh.F;
   const int n = int(V.rows());
-  std::vector<char> used;
-  R.unreferenced_vertices = count_unreferenced(F, n, &used);
-  if (R.finite) R.duplicate_vertices = count_duplicates(V);
   for (Eigen::Index f = 0; f < F.rows(); ++f) {
     int a = F(f, 0), b = F(f, 1), c = F(f, 2);
     bool degenerate = a == b || b == c || a == c;
@@ -262,13 +275,7 @@ MeshReport check_surface(const TriMesh& mesh) {
 
   auto& P = R.problems;
   if (R.unreferenced_vertices) P.push_back(plural(R.unreferenced_vertices, "unreferenced vertex", "unreferenced vertices"));
-  if (R.duplicate_vertices)
-    P.push_back(plural(R.duplicate_vertices, "duplicate vertex", "duplicate vertices") + " (identical positions)");
-  if (R.degenerate_elements)
-    P.push_back(plural(R.degenerate_elements, "degenerate face", "degenerate faces") + " (zero area or repeated vertex)");
-  if (R.non_manifold_edges)
-    P.push_back(plural(R.non_manifold_edges, "non-manifold edge", "non-manifold edges") + " (more than 2 faces)");
-  if (R.non_manifold_vertices) P.push_back(plural(R.non_manifold_vertices, "non-manifold vertex", "non-manifold vertices"));
+  append_repairable_problems(R, P);
   if (F.rows() > 0 && !R.closed)
     P.push_back("not closed: " + plural(R.boundary_edges, "boundary edge", "boundary edges") + " in " +
                 plural(R.boundary_components, "hole", "holes"));
@@ -280,13 +287,11 @@ MeshReport check_surface(const TriMesh& mesh) {
 
 MeshReport check_volume(const TetMesh& mesh) {
   MeshReport R;
-  if (!check_common(R, mesh.V, mesh.T, 4, "tetrahedra")) return R;
+  std::vector<char> used;
+  if (!check_common(R, mesh.V, mesh.T, 4, "tetrahedra", used)) return R;
   const Eigen::MatrixXd& V = mesh.V;
   const Eigen::MatrixXi& T = mesh.T;
   const int n = int(V.rows());
-  std::vector<char> used;
-  R.unreferenced_vertices = count_unreferenced(T, n, &used);
-  if (R.finite) R.duplicate_vertices = count_duplicates(V);
   bool repeated_any = false;
   for (Eigen::Index t = 0; t < T.rows(); ++t) {
     bool repeated = false;

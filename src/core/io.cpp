@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <initializer_list>
 #include <limits>
 
 namespace fs = std::filesystem;
@@ -120,22 +121,6 @@ void orient_tets_positive(TetMesh& mesh) {
     for (Eigen::Index t = 0; t < mesh.T.rows(); ++t) std::swap(mesh.T(t, 2), mesh.T(t, 3));
 }
 
-Eigen::MatrixXd to_matrix(const std::vector<double>& flat, int cols) {
-  Eigen::Index rows = Eigen::Index(flat.size() / size_t(cols));
-  Eigen::MatrixXd M(rows, cols);
-  for (Eigen::Index i = 0; i < rows; ++i)
-    for (int j = 0; j < cols; ++j) M(i, j) = flat[size_t(i) * cols + j];
-  return M;
-}
-
-Eigen::MatrixXi to_matrix(const std::vector<int>& flat, int cols) {
-  Eigen::Index rows = Eigen::Index(flat.size() / size_t(cols));
-  Eigen::MatrixXi M(rows, cols);
-  for (Eigen::Index i = 0; i < rows; ++i)
-    for (int j = 0; j < cols; ++j) M(i, j) = flat[size_t(i) * cols + j];
-  return M;
-}
-
 }  // namespace detail
 
 using namespace detail;
@@ -167,23 +152,40 @@ TriMesh read_surface(const std::string& path) {
   throw InputError(path + ": unknown surface format '" + e + "' (use .obj .off .ply .stl)");
 }
 
+// The writers' guard (the readers check what they read): V n×3, elements of k corners, every
+// index in range. `what`, `E_name` and `indices` word the message.
+static void check_writable(const std::string& path, const Eigen::MatrixXd& V, const Eigen::MatrixXi& E, int k,
+                           const std::string& what, const std::string& E_name, const std::string& indices) {
+  if (V.cols() != 3 || E.cols() != k)
+    throw Error(path + ": cannot write a " + what + " with V " + std::to_string(V.cols()) + " columns and " +
+                E_name + " " + std::to_string(E.cols()) + " columns");
+  if (E.size() > 0 && (E.minCoeff() < 0 || E.maxCoeff() >= V.rows()))
+    throw Error(path + ": cannot write a " + what + " with " + indices + " out of range");
+}
+
 static void check_writable(const std::string& path, const TriMesh& m) {
-  if (m.V.cols() != 3 || m.F.cols() != 3)
-    throw Error(path + ": cannot write a surface with V " + std::to_string(m.V.cols()) +
-                " columns and F " + std::to_string(m.F.cols()) + " columns");
-  if (m.F.size() > 0 && (m.F.minCoeff() < 0 || m.F.maxCoeff() >= m.V.rows()))
-    throw Error(path + ": cannot write a surface with face indices out of range");
+  check_writable(path, m.V, m.F, 3, "surface", "F", "face indices");
+}
+
+template <class Mesh>
+using MeshWriter = void (*)(const std::string&, const Mesh&);
+
+// Writes `mesh` with the writer of the path's extension (checked before anything else).
+template <class Mesh>
+static void write_by_extension(const std::string& path, const Mesh& mesh, const char* kind, const char* formats,
+                               std::initializer_list<std::pair<const char*, MeshWriter<Mesh>>> writers) {
+  const std::string e = extension(path);
+  for (const auto& [ext, write] : writers)
+    if (e == ext) {
+      check_writable(path, mesh);
+      return write(path, mesh);
+    }
+  throw InputError(path + ": unknown " + kind + " format '" + e + "' (use " + formats + ")");
 }
 
 void write_surface(const std::string& path, const TriMesh& mesh) {
-  std::string e = extension(path);
-  if (e != ".obj" && e != ".off" && e != ".ply" && e != ".stl")
-    throw InputError(path + ": unknown surface format '" + e + "' (use .obj .off .ply .stl)");
-  check_writable(path, mesh);
-  if (e == ".obj") return write_obj(path, mesh);
-  if (e == ".off") return write_off(path, mesh);
-  if (e == ".ply") return write_ply(path, mesh);
-  return write_stl(path, mesh);
+  write_by_extension(path, mesh, "surface", ".obj .off .ply .stl",
+                     {{".obj", write_obj}, {".off", write_off}, {".ply", write_ply}, {".stl", write_stl}});
 }
 
 TetMesh read_volume(const std::string& path) {
@@ -204,22 +206,14 @@ TetMesh read_volume(const std::string& path) {
 }
 
 static void check_writable(const std::string& path, const TetMesh& m) {
-  if (m.V.cols() != 3 || m.T.cols() != 4)
-    throw Error(path + ": cannot write a tet mesh with V " + std::to_string(m.V.cols()) +
-                " columns and T " + std::to_string(m.T.cols()) + " columns");
-  if (m.T.size() > 0 && (m.T.minCoeff() < 0 || m.T.maxCoeff() >= m.V.rows()))
-    throw Error(path + ": cannot write a tet mesh with indices out of range");
+  check_writable(path, m.V, m.T, 4, "tet mesh", "T", "indices");
 }
 
 void write_volume(const std::string& path, const TetMesh& mesh) {
-  std::string e = extension(path);
-  if (!is_volume_path(path))
-    throw InputError(path + ": unknown volume format '" + e + "' (use .vtk .mesh .msh .node/.ele)");
-  check_writable(path, mesh);
-  if (e == ".vtk") return write_vtk(path, mesh);
-  if (e == ".mesh") return write_medit(path, mesh);
-  if (e == ".msh") return write_gmsh(path, mesh);
-  return write_tetgen(path, mesh);
+  auto vtk = [](const std::string& p, const TetMesh& m) { write_vtk(p, m); };
+  write_by_extension(path, mesh, "volume", ".vtk .mesh .msh .node/.ele",
+                     {{".vtk", vtk}, {".mesh", write_medit}, {".msh", write_gmsh}, {".node", write_tetgen},
+                      {".ele", write_tetgen}});
 }
 
 void write_vtk(const std::string& path, const TetMesh& mesh,
@@ -249,10 +243,7 @@ void write_vtk(const std::string& path, const TetMesh& mesh,
   s += "CELLS " + std::to_string(m) + " " + std::to_string(5 * m) + "\n";
   for (Eigen::Index t = 0; t < m; ++t) {
     s += '4';
-    for (int j = 0; j < 4; ++j) {
-      s += ' ';
-      append_int(s, mesh.T(t, j));
-    }
+    append_row(s, mesh.T, t);
     s += '\n';
   }
   s += "CELL_TYPES " + std::to_string(m) + "\n";
@@ -280,13 +271,10 @@ void write_vtk(const std::string& path, const TetMesh& mesh,
 }
 
 Eigen::MatrixXd read_points(const std::string& path) {
-  std::string data = read_file_bytes(path);
-  Parser P(path, data);
-  P.comment = '#';
+  TextFile file(path);
+  Parser& P = file.P;
   std::vector<double> xyz;
-  for (;;) {
-    P.skip_space();
-    if (P.eof()) break;
+  while (P.more()) {
     for (const char* c : {"x", "y", "z"}) xyz.push_back(P.line_double(c));
     if (!P.at_eol()) P.fail("expected 3 values (x y z), found more");
     P.skip_line();
@@ -302,13 +290,10 @@ std::vector<int> read_landmarks(const std::string& path, const Eigen::MatrixXd& 
     if (c < 0 || c >= n)
       throw InputError(path + ": landmark candidate vertex " + std::to_string(c) + " out of range (" +
                        std::to_string(n) + " vertices)");
-  std::string data = read_file_bytes(path);
-  Parser P(path, data);
-  P.comment = '#';
+  TextFile file(path);
+  Parser& P = file.P;
   std::vector<int> out;
-  for (;;) {
-    P.skip_space();
-    if (P.eof()) break;
+  while (P.more()) {
     const int line = P.line();
     std::string_view tok[4];
     int k = 0;

@@ -46,6 +46,20 @@ inline void append_int(std::string& out, long long x) {
   auto r = std::to_chars(buf, buf + sizeof buf, x);
   out.append(buf, r.ptr);
 }
+// Row r of a vertex or element matrix, each value after a space: the body of most lines the
+// text writers write. `base` is added to indices (1 for 1-based formats).
+inline void append_row(std::string& out, const Eigen::MatrixXd& M, Eigen::Index r) {
+  for (Eigen::Index j = 0; j < M.cols(); ++j) {
+    out += ' ';
+    append_double(out, M(r, j));
+  }
+}
+inline void append_row(std::string& out, const Eigen::MatrixXi& M, Eigen::Index r, int base = 0) {
+  for (Eigen::Index j = 0; j < M.cols(); ++j) {
+    out += ' ';
+    append_int(out, M(r, j) + base);
+  }
+}
 
 inline bool iequals(std::string_view a, std::string_view b) {
   if (a.size() != b.size()) return false;
@@ -112,6 +126,11 @@ class Parser {
     }
   }
   // Skips blanks, newlines and comments.
+  // skip_space(), then false at the end: `while (P.more())` walks a file of one record a line.
+  bool more() {
+    skip_space();
+    return !eof();
+  }
   void skip_space() {
     for (;;) {
       skip_blanks();
@@ -254,6 +273,16 @@ class Parser {
   int line_ = 1;
 };
 
+// A text file read whole and a Parser over it, '#' starting comments: how the text readers
+// begin. Not copyable: the parser points into `data`.
+struct TextFile {
+  explicit TextFile(const std::string& path) : data(read_file_bytes(path)), P(path, data) { P.comment = '#'; }
+  TextFile(const TextFile&) = delete;
+  TextFile& operator=(const TextFile&) = delete;
+  std::string data;
+  Parser P;
+};
+
 // Vertex ids of files that number vertices freely (gmsh tags, TetGen indices):
 // id -> 0-based row. Fast path for consecutive ids.
 class IdMap {
@@ -291,8 +320,21 @@ class IdMap {
 };
 
 // Packs rows of doubles / ints (flat, row-major) into Eigen matrices.
-Eigen::MatrixXd to_matrix(const std::vector<double>& flat, int cols);
-Eigen::MatrixXi to_matrix(const std::vector<int>& flat, int cols);
+template <class Scalar>
+Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> to_matrix(const std::vector<Scalar>& flat, int cols) {
+  const Eigen::Index rows = Eigen::Index(flat.size() / size_t(cols));
+  Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> M(rows, cols);
+  for (Eigen::Index i = 0; i < rows; ++i)
+    for (int j = 0; j < cols; ++j) M(i, j) = flat[size_t(i) * cols + j];
+  return M;
+}
+
+// The readers' last check: a file that gave no vertices or no `elements` is an error.
+inline void require_read(const std::string& path, const std::vector<double>& V, const std::vector<int>& E,
+                         const char* elements) {
+  if (V.empty()) throw InputError(path + ": no vertices");
+  if (E.empty()) throw InputError(path + ": no " + std::string(elements));
+}
 
 // Surface / volume readers and writers by format (io_surface.cpp, io_volume.cpp).
 TriMesh read_obj(const std::string& path);

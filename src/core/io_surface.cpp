@@ -30,12 +30,8 @@ struct SurfaceBuilder {
     }
   }
   TriMesh finish(const std::string& path) const {
-    if (V.empty()) throw InputError(path + ": no vertices");
-    if (F.empty()) throw InputError(path + ": no faces");
-    TriMesh m;
-    m.V = to_matrix(V, 3);
-    m.F = to_matrix(F, 3);
-    return m;
+    require_read(path, V, F, "faces");
+    return {to_matrix(V, 3), to_matrix(F, 3)};
   }
 };
 
@@ -50,9 +46,8 @@ std::string out_of_range(long long index, int n) {
 // indices count back from the last vertex read. Other statements are ignored; a line
 // that does not start with a keyword (letters, digits, '_') is an error.
 TriMesh read_obj(const std::string& path) {
-  std::string data = read_file_bytes(path);
-  Parser P(path, data);
-  P.comment = '#';
+  TextFile file(path);
+  Parser& P = file.P;
   SurfaceBuilder S;
   // Positive indices may (in some writers) refer to vertices listed later, so they are
   // checked when the whole file is read.
@@ -122,18 +117,12 @@ void write_obj(const std::string& path, const TriMesh& m) {
   s += "# shapemap\n";
   for (Eigen::Index i = 0; i < m.V.rows(); ++i) {
     s += 'v';
-    for (int j = 0; j < 3; ++j) {
-      s += ' ';
-      append_double(s, m.V(i, j));
-    }
+    append_row(s, m.V, i);
     s += '\n';
   }
   for (Eigen::Index f = 0; f < m.F.rows(); ++f) {
     s += 'f';
-    for (int j = 0; j < 3; ++j) {
-      s += ' ';
-      append_int(s, m.F(f, j) + 1);
-    }
+    append_row(s, m.F, f, 1);
     s += '\n';
   }
   write_bytes_atomic(path, s);
@@ -144,9 +133,8 @@ void write_obj(const std::string& path, const TriMesh& m) {
 // comments, "nv nf [ne]", nv vertex lines (x y z, extra values ignored), nf face
 // lines "k i1 .. ik [color]" (0-based).
 TriMesh read_off(const std::string& path) {
-  std::string data = read_file_bytes(path);
-  Parser P(path, data);
-  P.comment = '#';
+  TextFile file(path);
+  Parser& P = file.P;
   std::string_view tok = P.next_token();
   if (tok.empty()) P.fail("empty file");
   bool numeric = tok.find_first_not_of("0123456789") == std::string_view::npos;
@@ -211,10 +199,7 @@ void write_off(const std::string& path, const TriMesh& m) {
   }
   for (Eigen::Index f = 0; f < m.F.rows(); ++f) {
     s += '3';
-    for (int j = 0; j < 3; ++j) {
-      s += ' ';
-      append_int(s, m.F(f, j));
-    }
+    append_row(s, m.F, f);
     s += '\n';
   }
   write_bytes_atomic(path, s);

@@ -13,12 +13,8 @@ struct VolumeBuilder {
   std::vector<int> T;
   int num_vertices() const { return int(V.size() / 3); }
   TetMesh finish(const std::string& path) const {
-    if (V.empty()) throw InputError(path + ": no vertices");
-    if (T.empty()) throw InputError(path + ": no tetrahedra");
-    TetMesh m;
-    m.V = to_matrix(V, 3);
-    m.T = to_matrix(T, 4);
-    return m;
+    require_read(path, V, T, "tetrahedra");
+    return {to_matrix(V, 3), to_matrix(T, 4)};
   }
 };
 
@@ -37,9 +33,8 @@ std::string index_range(long long i, int n, const char* what = "vertex", const c
 // Medit .mesh (ASCII): keywords MeshVersionFormatted, Dimension 3, Vertices,
 // Tetrahedra, End; other sections are skipped. Indices are 1-based.
 TetMesh read_medit(const std::string& path) {
-  std::string data = read_file_bytes(path);
-  Parser P(path, data);
-  P.comment = '#';
+  TextFile file(path);
+  Parser& P = file.P;
   VolumeBuilder B;
   std::vector<long long> raw;
   std::vector<int> raw_line;
@@ -387,14 +382,20 @@ struct GmshReader {
     if (ids.finish(&dup)) P.fail("node tag " + std::to_string(dup) + " appears twice");
     end_section("$EndNodes");
   }
+  // A version 4 section's header: the entity block count and the count of `what` (each at
+  // least `min_bytes` long in the file); 4.1 adds the least and greatest tag.
+  std::pair<int, int> blocks_header(const std::string& what, double min_bytes) {
+    const int blocks = P.check_count(P.next_int("entity block count"), 8, what + " block");
+    const int n = P.check_count(P.next_int(what + " count"), min_bytes, what);
+    if (!v40) {
+      P.next_int("min " + what + " tag");
+      P.next_int("max " + what + " tag");
+    }
+    return {blocks, n};
+  }
   // Version 4: entity blocks; 4.1 lists a block's tags before its coordinates.
   void node_blocks() {
-    int blocks = P.check_count(P.next_int("entity block count"), 8, "node block");
-    int n = P.check_count(P.next_int("node count"), 8, "node");
-    if (!v40) {
-      P.next_int("min node tag");
-      P.next_int("max node tag");
-    }
+    const auto [blocks, n] = blocks_header("node", 8);
     B.V.reserve(size_t(n) * 3);
     long long total = 0;
     std::vector<long long> tags;
@@ -441,12 +442,7 @@ struct GmshReader {
     end_section("$EndElements");
   }
   void element_blocks() {
-    int blocks = P.check_count(P.next_int("entity block count"), 8, "element block");
-    int m = P.check_count(P.next_int("element count"), 4, "element");
-    if (!v40) {
-      P.next_int("min element tag");
-      P.next_int("max element tag");
-    }
+    const auto [blocks, m] = blocks_header("element", 4);
     long long total = 0;
     for (int b = 0; b < blocks; ++b) {
       P.next_int("entity");
@@ -506,20 +502,14 @@ void write_gmsh(const std::string& path, const TetMesh& m) {
   s += "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n" + std::to_string(m.V.rows()) + "\n";
   for (Eigen::Index i = 0; i < m.V.rows(); ++i) {
     append_int(s, i + 1);
-    for (int j = 0; j < 3; ++j) {
-      s += ' ';
-      append_double(s, m.V(i, j));
-    }
+    append_row(s, m.V, i);
     s += '\n';
   }
   s += "$EndNodes\n$Elements\n" + std::to_string(m.T.rows()) + "\n";
   for (Eigen::Index t = 0; t < m.T.rows(); ++t) {
     append_int(s, t + 1);
     s += " 4 2 1 1";
-    for (int j = 0; j < 4; ++j) {
-      s += ' ';
-      append_int(s, m.T(t, j) + 1);
-    }
+    append_row(s, m.T, t, 1);
     s += '\n';
   }
   s += "$EndElements\n";
@@ -560,11 +550,9 @@ TetMesh read_tetgen(const std::string& path) {
   VolumeBuilder B;
   IdMap ids;
   {
-    std::string data = read_file_bytes(node_path);
-    Parser P(node_path, data);
-    P.comment = '#';
-    P.skip_space();
-    if (P.eof()) P.fail("empty file");
+    TextFile file(node_path);
+    Parser& P = file.P;
+    if (!P.more()) P.fail("empty file");
     long long n_raw = P.line_int("point count");
     long long dim = P.line_int("dimension");
     if (dim != 3) P.fail("dimension " + std::to_string(dim) + " (need 3)");
@@ -583,11 +571,9 @@ TetMesh read_tetgen(const std::string& path) {
     if (ids.finish(&dup)) P.fail("point number " + std::to_string(dup) + " appears twice");
   }
   {
-    std::string data = read_file_bytes(ele_path);
-    Parser P(ele_path, data);
-    P.comment = '#';
-    P.skip_space();
-    if (P.eof()) P.fail("empty file");
+    TextFile file(ele_path);
+    Parser& P = file.P;
+    if (!P.more()) P.fail("empty file");
     long long m_raw = P.line_int("tetrahedron count");
     long long npt = P.line_int("nodes per tetrahedron");
     if (npt != 4 && npt != 10) P.fail("nodes per tetrahedron " + std::to_string(npt) + " (need 4 or 10)");
@@ -618,10 +604,7 @@ void write_tetgen(const std::string& path, const TetMesh& m) {
   s += std::to_string(m.V.rows()) + " 3 0 0\n";
   for (Eigen::Index i = 0; i < m.V.rows(); ++i) {
     append_int(s, i + 1);
-    for (int j = 0; j < 3; ++j) {
-      s += ' ';
-      append_double(s, m.V(i, j));
-    }
+    append_row(s, m.V, i);
     s += '\n';
   }
   s += "# written by shapemap\n";
@@ -630,10 +613,7 @@ void write_tetgen(const std::string& path, const TetMesh& m) {
   e += std::to_string(m.T.rows()) + " 4 0\n";
   for (Eigen::Index t = 0; t < m.T.rows(); ++t) {
     append_int(e, t + 1);
-    for (int j = 0; j < 4; ++j) {
-      e += ' ';
-      append_int(e, m.T(t, j) + 1);
-    }
+    append_row(e, m.T, t, 1);
     e += '\n';
   }
   e += "# written by shapemap\n";

@@ -74,11 +74,9 @@ void validate_map(const BarycentricMap& map, int num_source_vertices, int num_ta
 }
 
 BarycentricMap read_map(const std::string& path) {
-  std::string data = read_file_bytes(path);
-  Parser P(path, data);
-  P.comment = '#';
-  P.skip_space();
-  if (P.eof()) P.fail("empty map file");
+  TextFile file(path);
+  Parser& P = file.P;
+  if (!P.more()) P.fail("empty map file");
   std::string_view magic = P.line_token();
   if (magic != "shapemap-map") P.fail("not a shapemap map file (expected header 'shapemap-map 1 <n> <arity>', found " + quote(magic) + ")");
   long long version = P.line_int("format version");

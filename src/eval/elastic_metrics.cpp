@@ -29,10 +29,11 @@ void check_map(const TriMesh& S, const TriMesh& T, const BarycentricMap& P, cons
   validate_map(P, S.num_vertices(), T.num_faces(), 3, name);
 }
 
-}  // namespace
-
-Eigen::VectorXd conformal_distortion(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
-                                     const Eigen::MatrixXi& F) {
+// A per-face quantity of the map X -> Y (faces in parallel): value(e1, e2, d1, d2) of the
+// edge vectors x1 - x0, x2 - x0 of a face and their images under the map.
+template <class Value>
+Eigen::VectorXd per_face(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, const Eigen::MatrixXi& F,
+                         Value value) {
   const int m = int(F.rows());
   Eigen::VectorXd out(m);
 #pragma omp parallel for schedule(static)
@@ -41,39 +42,35 @@ Eigen::VectorXd conformal_distortion(const Eigen::MatrixXd& X, const Eigen::Matr
                           e2 = Eigen::Vector3d(X.row(F(f, 2))) - x0;
     const Eigen::Vector3d y0 = Y.row(F(f, 0)), d1 = Eigen::Vector3d(Y.row(F(f, 1))) - y0,
                           d2 = Eigen::Vector3d(Y.row(F(f, 2))) - y0;
-    const double G00 = e1.dot(e1), G01 = e1.dot(e2), G11 = e2.dot(e2);
-    const double detG = e1.cross(e2).squaredNorm();
-    const double g00 = d1.dot(d1), g01 = d1.dot(d2), g11 = d2.dot(d2);
-    const double detg = d1.cross(d2).squaredNorm();
-    if (!(detG > 0)) {
-      out(f) = std::numeric_limits<double>::quiet_NaN();
-      continue;
-    }
-    // tr(G^-1 g) and det(G^-1 g) = detg/detG; MIPS = tr / sqrt(det) = s1/s2 + s2/s1
-    const double tr = (G11 * g00 - 2 * G01 * g01 + G00 * g11) / detG;
-    const double det = detg / detG;
-    out(f) = det > 0 ? std::max(0.0, tr / std::sqrt(det) - 2.0)
-                     : std::numeric_limits<double>::infinity();
+    out(f) = value(e1, e2, d1, d2);
   }
   return out;
 }
 
+}  // namespace
+
+Eigen::VectorXd conformal_distortion(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
+                                     const Eigen::MatrixXi& F) {
+  return per_face(X, Y, F, [](const Eigen::Vector3d& e1, const Eigen::Vector3d& e2, const Eigen::Vector3d& d1,
+                              const Eigen::Vector3d& d2) {
+    const double G00 = e1.dot(e1), G01 = e1.dot(e2), G11 = e2.dot(e2);
+    const double detG = e1.cross(e2).squaredNorm();
+    const double g00 = d1.dot(d1), g01 = d1.dot(d2), g11 = d2.dot(d2);
+    const double detg = d1.cross(d2).squaredNorm();
+    if (!(detG > 0)) return std::numeric_limits<double>::quiet_NaN();
+    // tr(G^-1 g) and det(G^-1 g) = detg/detG; MIPS = tr / sqrt(det) = s1/s2 + s2/s1
+    const double tr = (G11 * g00 - 2 * G01 * g01 + G00 * g11) / detG;
+    const double det = detg / detG;
+    return det > 0 ? std::max(0.0, tr / std::sqrt(det) - 2.0) : std::numeric_limits<double>::infinity();
+  });
+}
+
 Eigen::VectorXd area_distortion(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
                                 const Eigen::MatrixXi& F) {
-  const int m = int(F.rows());
-  Eigen::VectorXd out(m);
-#pragma omp parallel for schedule(static)
-  for (int f = 0; f < m; ++f) {
-    const Eigen::Vector3d x0 = X.row(F(f, 0)), y0 = Y.row(F(f, 0));
-    const double a0 = (Eigen::Vector3d(X.row(F(f, 1))) - x0)
-                          .cross(Eigen::Vector3d(X.row(F(f, 2))) - x0)
-                          .norm();
-    const double a1 = (Eigen::Vector3d(Y.row(F(f, 1))) - y0)
-                          .cross(Eigen::Vector3d(Y.row(F(f, 2))) - y0)
-                          .norm();
-    out(f) = std::log(a1 / a0);
-  }
-  return out;
+  return per_face(X, Y, F, [](const Eigen::Vector3d& e1, const Eigen::Vector3d& e2, const Eigen::Vector3d& d1,
+                              const Eigen::Vector3d& d2) {
+    return std::log(d1.cross(d2).norm() / e1.cross(e2).norm());
+  });
 }
 
 FoldCounts fold_counts(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F, const Eigen::MatrixXd& Y,

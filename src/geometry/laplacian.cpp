@@ -136,14 +136,15 @@ bool has_pattern(const Eigen::SparseMatrix<double>& L, const TetPattern& P) {
          std::memcmp(L.innerIndexPtr(), P.inner.data(), sizeof(int) * P.inner.size()) == 0;
 }
 
-}  // namespace
-
-Eigen::SparseMatrix<double> cotan_laplacian(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
+// Both cotan_laplacian()s; sigma null: all divisors 1 (x / 1.0 is x exactly).
+Eigen::SparseMatrix<double> weighted_cotan(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
+                                           const Eigen::VectorXd* sigma) {
   require_element_indices(F, V.rows(), 3, "cotan_laplacian");
   const Eigen::Index m = F.rows();
   std::vector<Eigen::Triplet<double>> trip(size_t(m) * 12);
 #pragma omp parallel for schedule(static)
   for (Eigen::Index f = 0; f < m; ++f) {
+    const double d = sigma ? (*sigma)(f) : 1.0;
     for (int c = 0; c < 3; ++c) {
       // Corner c with opposite edge (i, j).
       const int i = F(f, (c + 1) % 3), j = F(f, (c + 2) % 3);
@@ -151,7 +152,7 @@ Eigen::SparseMatrix<double> cotan_laplacian(const Eigen::MatrixXd& V, const Eige
       const Eigen::Vector3d u = V.row(i).transpose() - p, v = V.row(j).transpose() - p;
       const double s = u.cross(v).norm();
       // cot = cos/sin = (u.v) / |u x v|; a degenerate corner contributes nothing.
-      const double w = s > 0 ? 0.5 * u.dot(v) / s : 0.0;
+      const double w = (s > 0 && d > 0 && std::isfinite(d)) ? 0.5 * u.dot(v) / s / d : 0.0;
       Eigen::Triplet<double>* out = &trip[size_t(f) * 12 + size_t(c) * 4];
       out[0] = {i, j, -w};
       out[1] = {j, i, -w};
@@ -163,6 +164,17 @@ Eigen::SparseMatrix<double> cotan_laplacian(const Eigen::MatrixXd& V, const Eige
   L.setFromTriplets(trip.begin(), trip.end());
   L.makeCompressed();
   return L;
+}
+
+}  // namespace
+
+Eigen::SparseMatrix<double> cotan_laplacian(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
+  return weighted_cotan(V, F, nullptr);
+}
+
+Eigen::SparseMatrix<double> cotan_laplacian(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
+                                            const Eigen::VectorXd& sigma) {
+  return weighted_cotan(V, F, &sigma);
 }
 
 Eigen::MatrixXd tet_cotan_weights(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T) {

@@ -19,26 +19,30 @@ Eigen::VectorXd scatter(const Eigen::MatrixXi& E, const Eigen::MatrixXd& C, Eige
   return M;
 }
 
+// A mass diagonal from its corner shares: `corners(e, C)` fills row e of C (m×k) for each
+// element in parallel, then scatter() sums the rows into the vertices.
+template <class Corners>
+Eigen::VectorXd corner_mass(const Eigen::MatrixXd& V, const Eigen::MatrixXi& E, int k, const char* name,
+                            Corners corners) {
+  require_element_indices(E, V.rows(), k, name);
+  const Eigen::Index m = E.rows();
+  Eigen::MatrixXd C(m, k);
+#pragma omp parallel for schedule(static)
+  for (Eigen::Index e = 0; e < m; ++e) corners(e, C);
+  return scatter(E, C, V.rows());
+}
+
 }  // namespace
 
 Eigen::VectorXd lumped_mass(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
-  require_element_indices(F, V.rows(), 3, "lumped_mass");
-  const Eigen::Index m = F.rows();
-  Eigen::MatrixXd C(m, 3);
-#pragma omp parallel for schedule(static)
-  for (Eigen::Index f = 0; f < m; ++f) {
+  return corner_mass(V, F, 3, "lumped_mass", [&](Eigen::Index f, Eigen::MatrixXd& C) {
     const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
     C.row(f).setConstant((b - a).cross(c - a).norm() / 6.0);
-  }
-  return scatter(F, C, V.rows());
+  });
 }
 
 Eigen::VectorXd voronoi_mass(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
-  require_element_indices(F, V.rows(), 3, "voronoi_mass");
-  const Eigen::Index m = F.rows();
-  Eigen::MatrixXd C(m, 3);
-#pragma omp parallel for schedule(static)
-  for (Eigen::Index f = 0; f < m; ++f) {
+  return corner_mass(V, F, 3, "voronoi_mass", [&](Eigen::Index f, Eigen::MatrixXd& C) {
     Eigen::Vector3d p[3];
     for (int c = 0; c < 3; ++c) p[c] = V.row(F(f, c));
     const double two_area = (p[1] - p[0]).cross(p[2] - p[0]).norm();
@@ -64,21 +68,15 @@ Eigen::VectorXd voronoi_mass(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F)
         C(f, c) = (l2[k] * cot[k] + l2[j] * cot[j]) / 8.0;
       }
     }
-  }
-  return scatter(F, C, V.rows());
+  });
 }
 
 Eigen::VectorXd tet_lumped_mass(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T) {
-  require_element_indices(T, V.rows(), 4, "tet_lumped_mass");
-  const Eigen::Index m = T.rows();
-  Eigen::MatrixXd C(m, 4);
-#pragma omp parallel for schedule(static)
-  for (Eigen::Index t = 0; t < m; ++t) {
+  return corner_mass(V, T, 4, "tet_lumped_mass", [&](Eigen::Index t, Eigen::MatrixXd& C) {
     const Eigen::Vector3d a = V.row(T(t, 0)), b = V.row(T(t, 1)), c = V.row(T(t, 2)),
                           d = V.row(T(t, 3));
     C.row(t).setConstant(std::abs(signed_tet_volume6(a, b, c, d)) / 24.0);
-  }
-  return scatter(T, C, V.rows());
+  });
 }
 
 }  // namespace shapemap

@@ -12,10 +12,6 @@ namespace shapemap {
 
 namespace {
 
-std::string count(long long n, const char* one, const char* many) {
-  return std::to_string(n) + " " + (n == 1 ? one : many);
-}
-
 // The barycentric row b of face f of mesh S expressed in face g of mesh T whose corners are
 // at the same positions (in any order).
 Eigen::RowVector3d permute_corners(const TriMesh& S, int f, const Eigen::RowVector3d& b, const TriMesh& T, int g) {
@@ -55,17 +51,12 @@ std::vector<std::string> repairable_defects(const TriMesh& in) {
   const MeshReport r = check_surface(in);
   std::vector<std::string> d;
   if (!r.finite || !r.indices_in_range || r.num_elements == 0) return d;  // not repairable: the guards say why
-  if (r.duplicate_vertices)
-    d.push_back(count(r.duplicate_vertices, "duplicate vertex", "duplicate vertices") + " (identical positions)");
-  if (r.degenerate_elements)
-    d.push_back(count(r.degenerate_elements, "degenerate face", "degenerate faces") + " (zero area or repeated vertex)");
-  if (r.non_manifold_edges)
-    d.push_back(count(r.non_manifold_edges, "non-manifold edge", "non-manifold edges") + " (more than 2 faces)");
-  if (r.non_manifold_vertices) d.push_back(count(r.non_manifold_vertices, "non-manifold vertex", "non-manifold vertices"));
-  if (r.unreferenced_vertices) d.push_back(count(r.unreferenced_vertices, "unreferenced vertex", "unreferenced vertices"));
+  append_repairable_problems(r, d);
+  if (r.unreferenced_vertices)
+    d.push_back(plural(r.unreferenced_vertices, "unreferenced vertex", "unreferenced vertices"));
   if (!r.closed)
-    d.push_back("not closed: " + count(r.boundary_edges, "boundary edge", "boundary edges") + " in " +
-                count(r.boundary_components, "hole", "holes"));
+    d.push_back("not closed: " + plural(r.boundary_edges, "boundary edge", "boundary edges") + " in " +
+                plural(r.boundary_components, "hole", "holes"));
   if (r.components > 1) d.push_back(std::to_string(r.components) + " connected components");
   return d;
 }

@@ -758,11 +758,19 @@ BIMResult blended_intrinsic_maps(const TriMesh& A, const TriMesh& B, const BIMOp
                      std::to_string(opt.landmarks_B.size()) + ")");
   if (!opt.landmarks_A.empty() && opt.landmarks_A.size() < 3)
     throw InputError("landmarks: at least 3 correspondences are needed");
-  BIMResult out;
   BIMSurface sa = bim_prepare(A, opt.name_A, opt, opt.landmarks_A, progress);
   BIMSurface sb = bim_prepare(B, opt.name_B, opt, opt.landmarks_B, progress);
-  for (auto& t : sa.timings) out.timings.push_back({"A/" + t.first, t.second});
-  for (auto& t : sb.timings) out.timings.push_back({"B/" + t.first, t.second});
+  BIMResult out = bim_prepared(sa, sb, opt, progress, true);
+  out.total_seconds = seconds_since(t0);
+  return out;
+}
+
+BIMResult bim_prepared(const BIMSurface& sa, const BIMSurface& sb, const BIMOptions& opt,
+                       const ProgressCallback& progress, bool prepared_here) {
+  auto t0 = Clock::now();
+  BIMResult out;
+  for (auto& t : sa.timings) out.timings.push_back({"A/" + t.first, prepared_here ? t.second : 0.0});
+  for (auto& t : sb.timings) out.timings.push_back({"B/" + t.first, prepared_here ? t.second : 0.0});
   out.features_A = sa.features;
   out.features_B = sb.features;
   out.num_even = int(sa.even.size());

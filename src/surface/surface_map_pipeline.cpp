@@ -126,26 +126,6 @@ nlohmann::json direction_json(const BIMDirectionResult& r) {
   return j;
 }
 
-// blended_intrinsic_maps() on prepared surfaces (no landmarks, no reverse_candidates).
-BIMResult bim_prepared(const BIMSurface& sa, const BIMSurface& sb, const BIMOptions& opt,
-                       const ProgressCallback& progress) {
-  const auto t0 = std::chrono::steady_clock::now();
-  BIMResult out;
-  for (auto& t : sa.timings) out.timings.push_back({"A/" + t.first, 0.0});  // done before, once
-  for (auto& t : sb.timings) out.timings.push_back({"B/" + t.first, 0.0});
-  out.features_A = sa.features;
-  out.features_B = sb.features;
-  out.num_even = int(sa.even.size());
-  out.AB = bim_map(sa, sb, opt, progress);
-  for (auto& t : out.AB.timings) out.timings.push_back({"AB/" + t.first, t.second});
-  if (opt.symmetric) {
-    out.BA = bim_map(sb, sa, opt, progress);
-    for (auto& t : out.BA.timings) out.timings.push_back({"BA/" + t.first, t.second});
-  }
-  out.total_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  return out;
-}
-
 bool prepared_fits(const PreparedSurface* p, const BIMOptions& o) {
   return p && p->bim && p->options.seed == o.seed && p->options.max_features == o.max_features &&
          p->options.num_even == o.num_even && p->options.min_vertices == o.min_vertices;

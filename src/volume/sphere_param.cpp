@@ -4,6 +4,7 @@
 #include "shapemap/timing.h"
 #include "shapemap/volume/latitude_longitude.h"
 #include "shapemap/error.h"
+#include "shapemap/geometry/laplacian.h"
 #include "shapemap/geometry/sparse_cholesky.h"
 #include <Eigen/Geometry>
 #include <Eigen/Sparse>
@@ -18,34 +19,6 @@ namespace shapemap {
 namespace {
 
 using Plane = Eigen::MatrixXd;  // n×2
-
-// Cotangent Laplacian (PSD convention) of triangles with per-face weight divisors
-// sigma (weights cot/2 / sigma_f). P n×3 positions.
-Eigen::SparseMatrix<double> weighted_cotan(const Eigen::MatrixXd& P, const Eigen::MatrixXi& F,
-                                           const Eigen::VectorXd* sigma) {
-  const Eigen::Index m = F.rows();
-  std::vector<Eigen::Triplet<double>> trip(size_t(m) * 12);
-#pragma omp parallel for schedule(static)
-  for (Eigen::Index f = 0; f < m; ++f) {
-    const double s = sigma ? (*sigma)(f) : 1.0;
-    for (int c = 0; c < 3; ++c) {
-      const int i = F(f, (c + 1) % 3), j = F(f, (c + 2) % 3);
-      const Eigen::Vector3d p = P.row(F(f, c));
-      const Eigen::Vector3d u = P.row(i).transpose() - p, v = P.row(j).transpose() - p;
-      const double cr = u.cross(v).norm();
-      const double w = (cr > 0 && s > 0 && std::isfinite(s)) ? 0.5 * u.dot(v) / cr / s : 0.0;
-      Eigen::Triplet<double>* out = &trip[size_t(f) * 12 + size_t(c) * 4];
-      out[0] = {i, j, -w};
-      out[1] = {j, i, -w};
-      out[2] = {i, i, w};
-      out[3] = {j, j, w};
-    }
-  }
-  Eigen::SparseMatrix<double> L(P.rows(), P.rows());
-  L.setFromTriplets(trip.begin(), trip.end());
-  L.makeCompressed();
-  return L;
-}
 
 // Flat triangle areas of P (n×3).
 Eigen::VectorXd areas3(const Eigen::MatrixXd& P, const Eigen::MatrixXi& F) {
@@ -325,7 +298,7 @@ struct SphereMapSolver {
       }
     }
     if (!(bestq > 0)) throw InputError("spherical map: all faces are degenerate");
-    Lc = weighted_cotan(V, F, nullptr);
+    Lc = cotan_laplacian(V, F);
     Plane uv = Plane::Zero(n, 2);
     {
       const int ia = F(best, 0), ib = F(best, 1), ic = F(best, 2);
@@ -401,7 +374,7 @@ struct SphereMapSolver {
       As /= As.sum();
       Eigen::VectorXd sigma(m);
       for (Eigen::Index f = 0; f < m; ++f) sigma(f) = As(f) > 0 ? target(f) / As(f) : 0.0;
-      return weighted_cotan(S, F, &sigma);
+      return cotan_laplacian(S, F, sigma);
     };
     Eigen::SparseMatrix<double> Ls = stretch_laplacian(cur.S);
     cur.E = energy_minus_area(Ls, cur.S, F);

@@ -178,8 +178,7 @@ void IsovolumetricEnergy::volume_gradient(const Eigen::MatrixXd& f, Eigen::Matri
   }
 }
 
-double IsovolumetricEnergy::energy_and_gradient(const Eigen::MatrixXd& f, Eigen::MatrixXd& G,
-                                                double* E_V, double* V_f) const {
+void IsovolumetricEnergy::stretch_terms(const Eigen::MatrixXd& f) const {
   const Eigen::Index m = T_.rows();
 #pragma omp parallel for schedule(static) if (m > kParallelMin)
   for (Eigen::Index t = 0; t < m; ++t) {
@@ -191,6 +190,12 @@ double IsovolumetricEnergy::energy_and_gradient(const Eigen::MatrixXd& f, Eigen:
     for (int c = 0; c < 4; ++c)
       for (int d = 0; d < 3; ++d) scratch_(t, 3 * c + d) = s * g[c](d);
   }
+}
+
+double IsovolumetricEnergy::energy_and_gradient(const Eigen::MatrixXd& f, Eigen::MatrixXd& G,
+                                                double* E_V, double* V_f) const {
+  const Eigen::Index m = T_.rows();
+  stretch_terms(f);
   double E = 0, Vf = 0;
   for (Eigen::Index t = 0; t < m; ++t) {
     E += vol_scratch_(t) * vol_scratch_(t) / vol_e_(t);
@@ -212,16 +217,7 @@ double IsovolumetricEnergy::energy_and_gradient(const Eigen::MatrixXd& f, Eigen:
 }
 
 Eigen::MatrixXd IsovolumetricEnergy::stretch_gradient(const Eigen::MatrixXd& f) const {
-  const Eigen::Index m = T_.rows();
-#pragma omp parallel for schedule(static) if (m > kParallelMin)
-  for (Eigen::Index t = 0; t < m; ++t) {
-    Eigen::Vector3d g[4];
-    const double a = volume_gradients(row3(f, T_(t, 0)), row3(f, T_(t, 1)), row3(f, T_(t, 2)),
-                                      row3(f, T_(t, 3)), g);
-    const double s = 2.0 * a / vol_e_(t);
-    for (int c = 0; c < 4; ++c)
-      for (int d = 0; d < 3; ++d) scratch_(t, 3 * c + d) = s * g[c](d);
-  }
+  stretch_terms(f);
   Eigen::MatrixXd G;
   gather(G);
   return G;

@@ -11,6 +11,11 @@ namespace shapemap {
 // V n×3, F m×3 -> n×n.
 Eigen::SparseMatrix<double> cotan_laplacian(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F);
 
+// The same with face f's weights divided by sigma(f) (the stretch energy of spherical
+// area-preserving maps); a face with sigma(f) not finite and > 0 contributes nothing.
+Eigen::SparseMatrix<double> cotan_laplacian(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
+                                            const Eigen::VectorXd& sigma);
+
 // Tets: w_ij = (1/6) sum over tets containing edge ij of l_kl * cot(theta_kl), where kl
 // is the opposite edge, l_kl its length and theta_kl the dihedral angle at kl.
 // V n×3, T m×4 -> n×n. Also the weights used by the isovolumetric L_V (Eq. 3c).

@@ -150,4 +150,10 @@ BIMDirectionResult bim_map(const BIMSurface& src, const BIMSurface& dst, const B
 BIMResult blended_intrinsic_maps(const TriMesh& A, const TriMesh& B, const BIMOptions& options = {},
                                  const ProgressCallback& progress = {});
 
+// blended_intrinsic_maps() on surfaces bim_prepare() made (with the options' landmarks). The
+// A/ and B/ timings are the surfaces' own with `prepared_here`, else 0 (prepared before, once
+// for many pairs); total_seconds counts the maps only.
+BIMResult bim_prepared(const BIMSurface& sa, const BIMSurface& sb, const BIMOptions& options,
+                       const ProgressCallback& progress = {}, bool prepared_here = false);
+
 }  // namespace shapemap

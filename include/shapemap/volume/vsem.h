@@ -92,6 +92,8 @@ class IsovolumetricEnergy {
   Eigen::MatrixXi Fb_;
   mutable Eigen::MatrixXd gv_scratch_;
   void gather(Eigen::MatrixXd& G) const;
+  // Per tet: its image volume into vol_scratch_, d(a^2/|tau|) per corner into scratch_.
+  void stretch_terms(const Eigen::MatrixXd& f) const;
 };
 
 // Free-function forms (libigl style). V n×3, T m×4, f n×3.
