@@ -360,10 +360,16 @@ def run_batch(a, paths, pairs, progress):
                                              key=f"shape-{n}-{stamp}", pure=False)
         futures = [client.submit(run_pair, j, shape_futures[j["A"]], shape_futures[j["B"]],
                                  key=f"pair-{j['pair']}-{time.time_ns()}", pure=False) for j in jobs]
-        for fut in as_completed(futures):
-            r = fut.result()
-            results.append(r)
-            progress.pair(r)
+        try:
+            for fut in as_completed(futures):
+                r = fut.result()
+                results.append(r)
+                progress.pair(r)
+        except KeyboardInterrupt:
+            # Drop the queued tasks: closing waits only for the running ones (worker threads
+            # do not see Ctrl-C).
+            client.cancel(futures + list(shape_futures.values()) + list(prep_futures.values()))
+            raise
         preps = {n: f.result() for n, f in prep_futures.items()}
     finally:
         client.close()
