@@ -10,6 +10,7 @@
 #include "shapemap/eval/volume_metrics.h"
 #include "shapemap/io.h"
 #include "shapemap/maps.h"
+#include "shapemap/surface/prepared_surface_io.h"
 #include "shapemap/surface/surface_map_pipeline.h"
 #include "shapemap/volume/ball_param.h"
 #include "shapemap/volume/register.h"
@@ -317,7 +318,14 @@ void bind_evaluate(py::module_& m) {
 void bind_prepare(py::module_& m) {
   py::class_<PreparedSurface, std::shared_ptr<PreparedSurface>>(m, "PreparedSurface")
       .def_property_readonly("num_vertices", [](const PreparedSurface& p) { return p.repair.mesh.num_vertices(); })
-      .def_property_readonly("notes", [](const PreparedSurface& p) { return p.repair.notes; });
+      .def_property_readonly("notes", [](const PreparedSurface& p) { return p.repair.notes; })
+      // Picklable, so one preparation serves pairs on every Dask worker (batch).
+      .def(py::pickle([](const PreparedSurface& p) { return py::bytes(save_prepared_surface(p)); },
+                      [](const py::bytes& b) {
+                        const std::string s = b;
+                        py::gil_scoped_release nogil;
+                        return load_prepared_surface(s);
+                      }));
   m.def("prepare_surface", [](const RowMatrixXd& V, const RowMatrixXi& F, const std::string& name, std::uint64_t seed,
                               int features, int samples, bool strict, py::object progress) {
     BIMOptions o;

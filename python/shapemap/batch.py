@@ -2,17 +2,20 @@
 
     python3 -m shapemap.batch SHAPE... -o DIR --method bim|elastic|volume|register
         [--pairs all|FILE.csv] [--landmarks-dir D] [--truth-dir D] [--workers N]
-        [--threads-per-worker T] [--scheduler tcp://HOST:PORT] [--tets N] [--seed S]
-        [--symmetric] [--quiet]
+        [--threads-per-worker T] [--worker-processes] [--scheduler tcp://HOST:PORT] [--tets N]
+        [--seed S] [--symmetric] [--quiet]
 
-(`shapemap batch ...` runs this.) Without --scheduler a local cluster of N worker
-processes is started; with it, the tasks go to a running cluster (dask-scheduler and
-dask-worker on any machines that see DIR and the shapes at the same paths).
+(`shapemap batch ...` runs this.) Without --scheduler a local cluster of N workers is
+started (threads of this process for bim and elastic, worker processes for volume and
+register or with --worker-processes); with it, the tasks go to a running cluster
+(dask-scheduler and dask-worker on any machines that see DIR and the shapes at the same paths).
 
 Per-shape work is done once per shape, as its own task, and cached in DIR/shapes/<name>/
 (reading and checks; for volume and register the tetrahedralization of surface inputs), so
-a rerun reuses it. BIM's per-surface stage (bim, and elastic's BIM initial maps; without
-landmarks) is kept in memory by each worker process: at most once per shape and worker.
+a rerun reuses it. A second task per shape holds its arrays for the pairs (read once per
+batch) and, for bim and elastic without landmarks, BIM's per-surface stage (prepare_surface:
+geodesics, features, flattening), done once per shape and batch and shared by every pair
+that uses the shape (pickled to the workers that need it; saved in DIR/shapes/<name>/ too).
 Each pair is a task writing DIR/<A>__<B>/ (map_AB.txt [map_BA.txt], A_on_B.<obj|vtk>
 [B_on_A], report.json; volume/register: A.vtk, B.vtk, the meshes the maps index) under a
 temporary name, renamed when complete. A rerun skips pairs whose folder is complete. A
@@ -28,6 +31,7 @@ import json
 import os
 import shutil
 import sys
+import threading
 import time
 
 SURFACE_EXT = (".obj", ".off", ".ply", ".stl")
@@ -102,40 +106,64 @@ def _landmarks(d, a, b):
     return (np.loadtxt(fa, dtype=int, ndmin=1).tolist(), np.loadtxt(fb, dtype=int, ndmin=1).tolist())
 
 
-# BIM's per-surface stage, kept in each worker process for the pairs it runs (a prepared
-# surface is not picklable: every worker prepares a shape at most once).
-_BIM_PREPARED = {}
-
-
-def _bim_prepared(path, name, V, F, seed, made):
+def _bim_prepared(path, mesh, cache, seed):
+    """BIM's per-surface stage of one shape: from the cache file of an earlier batch, else
+    computed (and saved). Returns (prepared surface, computed now)."""
+    import pickle
     import shapemap
-    key = (path, seed)
-    if key not in _BIM_PREPARED:
-        _BIM_PREPARED[key] = shapemap.prepare_surface(V, F, seed=seed, name=path)
-        made.append(name)
-    return _BIM_PREPARED[key]
+    f = os.path.join(cache, f"bim-seed{seed}.pickle")
+    if os.path.exists(f):
+        try:
+            with open(f, "rb") as fh:
+                return pickle.load(fh), False
+        except (OSError, RuntimeError, pickle.UnpicklingError, EOFError):
+            pass  # another format version or a torn file: prepare again
+    p = shapemap.prepare_surface(*mesh, seed=seed, name=path)
+    with open(f + ".tmp", "wb") as fh:
+        pickle.dump(p, fh, protocol=pickle.HIGHEST_PROTOCOL)
+    os.replace(f + ".tmp", f)
+    return p, True
 
 
-def _compute(job, prepA, prepB, made):
+def load_shape(prep, cache, method, seed, bim):
+    """One shape for its pairs, once per batch: its arrays (not read again per pair) and,
+    with `bim`, its prepared surface for BIM. Never raises: a failure is returned and
+    reported by the shape's pairs."""
+    t0 = time.perf_counter()
+    data = {"status": prep["status"], "error": prep["error"], "mesh": None, "prepared": None, "bim": None}
+    if prep["status"] != "ok":
+        return data
+    try:
+        data["mesh"] = _load(prep, cache, "surface" if method in ("bim", "elastic") else "volume")
+        if bim:
+            data["prepared"], fresh = _bim_prepared(prep["shape"], data["mesh"], cache, seed)
+            # An id per preparation: the summary counts distinct ids (once per shape and batch).
+            data["bim"] = {"id": f"{os.getpid()}-{time.time_ns()}", "computed": fresh}
+    except (ValueError, RuntimeError, OSError, MemoryError) as e:
+        data.update(status="failed", error=" ".join(str(e).split()))
+    data["seconds"] = time.perf_counter() - t0
+    return data
+
+
+def _compute(job, shapeA, shapeB):
     """The map of one pair; returns (map, meshes A and B, element kind)."""
     import shapemap
     a, b, o = job["A"], job["B"], job["options"]
     lm = _landmarks(o["landmarks_dir"], a, b)
     if o["method"] in ("bim", "elastic"):
-        (VA, FA), (VB, FB) = _load(prepA, job["cacheA"], "surface"), _load(prepB, job["cacheB"], "surface")
+        (VA, FA), (VB, FB) = shapeA["mesh"], shapeB["mesh"]
         truth = None
         tf = os.path.join(o["truth_dir"], f"{a}__{b}.txt") if o["truth_dir"] else None
         if tf and os.path.exists(tf):
             truth = shapemap.read_map(tf)
         prepared = None
         if not lm:  # BIM, or elastic's BIM initial maps
-            prepared = (_bim_prepared(job["pathA"], a, VA, FA, o["seed"], made),
-                        _bim_prepared(job["pathB"], b, VB, FB, o["seed"], made))
+            prepared = (shapeA["prepared"], shapeB["prepared"])
         m = shapemap.surface_map(VA, FA, VB, FB, method=o["method"], landmarks=lm, truth=truth, prepared=prepared,
                                  symmetric=o["symmetric"], seed=o["seed"], threads=o["threads"],
                                  names=(job["pathA"], job["pathB"]))
         return m, (VA, FA), (VB, FB), "surface"
-    (VA, TA), (VB, TB) = _load(prepA, job["cacheA"], "volume"), _load(prepB, job["cacheB"], "volume")
+    (VA, TA), (VB, TB) = shapeA["mesh"], shapeB["mesh"]
     if o["method"] == "volume":
         m = shapemap.volume_map(VA, TA, VB, TB, init="landmarks" if lm else "auto", landmarks=lm,
                                 seed=o["seed"], threads=o["threads"], names=(job["pathA"], job["pathB"]))
@@ -159,18 +187,20 @@ def _write_pair(tmp, m, A, B, kind, report):
         json.dump(report, f, indent=1)
 
 
-def run_pair(job, prepA, prepB):
-    """One pair: computes the map and writes DIR/A__B/ (temporary name, then renamed).
-    Never raises for a failing pair: returns its status and error."""
+def run_pair(job, shapeA, shapeB):
+    """One pair from its shapes (load_shape): computes the map and writes DIR/A__B/
+    (temporary name, then renamed). Never raises for a failing pair: returns its status and
+    error."""
     t0 = time.perf_counter()
     out = job["out"]
-    tmp = f"{out}.tmp-{os.getpid()}"
-    made = []  # shapes whose BIM stage this task prepared
+    tmp = f"{out}.tmp-{os.getpid()}-{threading.get_ident()}"  # workers may be threads
+    # The shape tasks this pair used, for the summary (BIM preparation ids, task seconds).
+    used = {n: {"bim": d["bim"], "seconds": d.get("seconds", 0.0)} for n, d in ((job["A"], shapeA), (job["B"], shapeB))}
     try:
-        for p, name in ((prepA, job["A"]), (prepB, job["B"])):
-            if p["status"] != "ok":
-                raise ValueError(p["error"] or f"{name}: preparation failed")
-        m, A, B, kind = _compute(job, prepA, prepB, made)
+        for d, name in ((shapeA, job["A"]), (shapeB, job["B"])):
+            if d["status"] != "ok":
+                raise ValueError(d["error"] or f"{name}: preparation failed")
+        m, A, B, kind = _compute(job, shapeA, shapeB)
         report = dict(m.report)
         report["batch"] = {"A": job["pathA"], "B": job["pathB"], "method": job["options"]["method"],
                            "seconds": time.perf_counter() - t0}
@@ -179,12 +209,12 @@ def run_pair(job, prepA, prepB):
         _write_pair(tmp, m, A, B, kind, report)
         os.replace(tmp, out)
         return {"pair": job["pair"], "status": "ok", "seconds": time.perf_counter() - t0, "error": "",
-                "metrics": summary_metrics(report), "bim_prepared": made}
+                "metrics": summary_metrics(report), "shapes": used}
     except (ValueError, RuntimeError, OSError, MemoryError) as e:
         shutil.rmtree(tmp, ignore_errors=True)
         msg = " ".join(str(e).split())
         return {"pair": job["pair"], "status": "failed", "seconds": time.perf_counter() - t0, "error": msg,
-                "metrics": {}, "bim_prepared": made}
+                "metrics": {}, "shapes": used}
 
 
 def summary_metrics(report):
@@ -215,6 +245,8 @@ def parse_args(argv):
     p.add_argument("--truth-dir", default="", help="ground-truth maps <A>__<B>.txt (surface methods)")
     p.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="local worker processes")
     p.add_argument("--threads-per-worker", type=int, default=1, help="OpenMP threads per task")
+    p.add_argument("--worker-processes", action="store_true",
+                   help="local workers as processes for bim and elastic too (isolation; slower start)")
     p.add_argument("--scheduler", default="", help="a running Dask scheduler, tcp://HOST:PORT")
     p.add_argument("--tets", type=int, default=0, help="tets per tetrahedralized surface (0: default)")
     p.add_argument("--seed", type=int, default=1)
@@ -272,7 +304,12 @@ def start_client(a):
         return Client(a.scheduler), None
     os.environ.setdefault("OMP_WAIT_POLICY", "passive")  # inherited by the worker processes
     os.environ["OMP_NUM_THREADS"] = str(a.threads_per_worker)  # also for calls without threads=
-    cluster = LocalCluster(n_workers=a.workers, threads_per_worker=1, processes=True,
+    # Worker threads in this process start in ~0.1 s instead of ~1-3 s for processes, and
+    # the shapes' arrays and prepared surfaces are shared without pickling: the surface
+    # methods release the GIL and their solvers are thread-safe. Volume methods keep
+    # processes: their supernodal factorizations share one BLAS lock within a process.
+    processes = a.worker_processes or a.method in ("volume", "register")
+    cluster = LocalCluster(n_workers=a.workers, threads_per_worker=1, processes=processes,
                            dashboard_address=None, silence_logs=logging.ERROR)
     return Client(cluster), cluster
 
@@ -311,15 +348,28 @@ def run_batch(a, paths, pairs, progress):
     try:
         needed = sorted({j["A"] for j in jobs} | {j["B"] for j in jobs})
         out = os.path.abspath(a.output)
-        prep_futures = {n: client.submit(prepare_shape, paths[n], os.path.join(out, "shapes", n), a.method,
-                                         a.tets, a.seed, key=f"prepare-{n}-{time.time_ns()}", pure=False)
-                        for n in needed}
-        futures = [client.submit(run_pair, j, prep_futures[j["A"]], prep_futures[j["B"]],
+        bim = a.method in ("bim", "elastic") and not a.landmarks_dir  # BIM's stage serves these pairs
+        # Per-shape tasks first (they run first), then the pairs, each as soon as its two
+        # shapes are ready; only the small preparation infos come back to this process.
+        prep_futures, shape_futures = {}, {}
+        for n in needed:
+            cache, stamp = os.path.join(out, "shapes", n), time.time_ns()
+            prep_futures[n] = client.submit(prepare_shape, paths[n], cache, a.method, a.tets, a.seed,
+                                            key=f"prepare-{n}-{stamp}", pure=False)
+            shape_futures[n] = client.submit(load_shape, prep_futures[n], cache, a.method, a.seed, bim,
+                                             key=f"shape-{n}-{stamp}", pure=False)
+        futures = [client.submit(run_pair, j, shape_futures[j["A"]], shape_futures[j["B"]],
                                  key=f"pair-{j['pair']}-{time.time_ns()}", pure=False) for j in jobs]
-        for fut in as_completed(futures):
-            r = fut.result()
-            results.append(r)
-            progress.pair(r)
+        try:
+            for fut in as_completed(futures):
+                r = fut.result()
+                results.append(r)
+                progress.pair(r)
+        except KeyboardInterrupt:
+            # Drop the queued tasks: closing waits only for the running ones (worker threads
+            # do not see Ctrl-C).
+            client.cancel(futures + list(shape_futures.values()) + list(prep_futures.values()))
+            raise
         preps = {n: f.result() for n, f in prep_futures.items()}
     finally:
         client.close()
@@ -341,12 +391,28 @@ def write_summary(out, a, results, preps, seconds):
             w.writerow([r["pair"], A, B, r["status"], f"{r['seconds']:.3f}", r["error"]] +
                        [r["metrics"].get(k, "") for k in keys])
     counts = {s: sum(r["status"] == s for r in results) for s in ("ok", "failed", "skipped")}
+    shapes = {n: {k: p[k] for k in ("status", "error", "seconds", "prepared")} for n, p in preps.items()}
+    bim_ids = {}  # shape -> {preparation id: computed (not read from the cache)}
+    for r in results:
+        for n, u in r.get("shapes", {}).items():
+            shapes[n]["load_seconds"] = u["seconds"]
+            if u["bim"]:
+                bim_ids.setdefault(n, {})[u["bim"]["id"]] = u["bim"]["computed"]
+    for n, ids in bim_ids.items():
+        shapes[n]["bim_preparations"] = sum(ids.values())
+        shapes[n]["bim_preparations_reused"] = len(ids) - sum(ids.values())
+    # Time spent inside this batch's tasks: shape preparations done now, shape tasks, pairs.
+    task_seconds = (sum(s["seconds"] for s in shapes.values() if s["prepared"]) +
+                    sum(s.get("load_seconds", 0.0) for s in shapes.values()) +
+                    sum(r["seconds"] for r in results if r["status"] != "skipped"))
     totals = {"method": a.method, "pairs": len(results), **counts, "seconds": seconds,
+              "task_seconds": task_seconds,
               "preparations": sum(1 for p in preps.values() if p.get("prepared")),
               "preparations_reused": sum(1 for p in preps.values() if not p.get("prepared")),
-              # BIM's per-surface stage: once per shape and worker process (kept in memory)
-              "bim_preparations": sum(len(r.get("bim_prepared", [])) for r in results),
-              "shapes": {n: {k: p[k] for k in ("status", "error", "seconds", "prepared")} for n, p in preps.items()}}
+              # BIM's per-surface stage: once per shape and batch, shared by its pairs
+              "bim_preparations": sum(s.get("bim_preparations", 0) for s in shapes.values()),
+              "bim_preparations_reused": sum(s.get("bim_preparations_reused", 0) for s in shapes.values()),
+              "shapes": shapes}
     with open(os.path.join(out, "summary.json"), "w") as f:
         json.dump(totals, f, indent=1)
     write_html(out, a, results, keys, totals)

@@ -156,6 +156,18 @@ def test_prepared_surfaces_give_the_same_map(surfaces, bim):
     assert m.report["bim"]["stages"]["A/sampling_geodesics"] == 0  # not done again
 
 
+def test_pickled_prepared_surfaces_give_the_same_map(surfaces, bim):
+    # How shapemap batch shares one preparation between Dask workers (and its cache file).
+    import pickle
+    (VA, FA), (VB, FB) = surfaces
+    pA, pB = (pickle.loads(pickle.dumps(shapemap.prepare_surface(V, F, name=n)))
+              for V, F, n in ((VA, FA, "A"), (VB, FB, "B")))
+    assert pA.num_vertices == len(VA)
+    m = shapemap.surface_map(VA, FA, VB, FB, symmetric=True, prepared=(pA, pB))
+    assert np.array_equal(m.element, bim.element) and np.array_equal(m.bary, bim.bary)
+    assert np.array_equal(m.reverse.element, bim.reverse.element) and np.array_equal(m.reverse.bary, bim.reverse.bary)
+
+
 def test_prepared_surfaces_elastic_same_map(surfaces):
     (VA, FA), (VB, FB) = surfaces
     prepared = (shapemap.prepare_surface(VA, FA), shapemap.prepare_surface(VB, FB))

@@ -39,7 +39,8 @@ def test_batch_rerun_and_failures(cli, shapes, tmp_path):
     assert float(got["s0__s1"]["conformal_distortion_mean"]) >= 0
     summary = json.loads((out / "summary.json").read_text())
     assert summary["preparations"] == 3  # once per shape, not once per pair
-    assert 3 <= summary["bim_preparations"] <= 6  # BIM's stage: once per shape and worker
+    assert summary["bim_preparations"] == 3  # BIM's stage: once per shape, shared by the workers
+    assert all(s["bim_preparations"] == 1 for s in summary["shapes"].values())
     assert (out / "summary.html").exists()
 
     # A rerun skips the finished pairs (no cluster, no preparation).
@@ -63,3 +64,29 @@ def test_batch_rerun_and_failures(cli, shapes, tmp_path):
             assert v["status"] == "skipped", v
     summary = json.loads((out / "summary.json").read_text())
     assert summary["preparations"] == 2 and summary["preparations_reused"] == 3
+
+
+def test_shared_preparations_give_the_direct_maps(cli, shapes, tmp_path):
+    # Pairs from BIM preparations shared between worker threads, sent to worker processes
+    # (pickled), and read from the cache of an earlier batch: the maps of `shapemap surface-map`.
+    three = [shapes / f"s{k}.obj" for k in range(3)]
+    direct = tmp_path / "direct"
+    cli("--threads", 1, "surface-map", three[0], three[2], "-o", direct)
+    want = (direct / "map_AB.txt").read_text()
+    for name, extra in (("threads", []), ("processes", ["--worker-processes"])):
+        out = tmp_path / name
+        r = batch(cli, *three, "-o", out, "--method", "bim", "--workers", 2, *extra)
+        assert r.returncode == 0, r.stderr
+        assert (out / "s0__s2" / "map_AB.txt").read_text() == want, name
+        assert json.loads((out / "summary.json").read_text())["bim_preparations"] == 3, name
+    out = tmp_path / "threads"
+    (out / "summary.csv").unlink()
+    for p in ("s0__s1", "s0__s2", "s1__s2"):
+        for f in (out / p).iterdir():
+            f.unlink()
+        (out / p).rmdir()
+    r = batch(cli, *three, "-o", out, "--method", "bim", "--workers", 1)
+    assert r.returncode == 0, r.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["bim_preparations"] == 0 and summary["bim_preparations_reused"] == 3
+    assert (out / "s0__s2" / "map_AB.txt").read_text() == want

@@ -1,0 +1,229 @@
+// Binary format: a magic word and version, then the fields in a fixed order; matrices as
+// rows, cols and the raw column-major doubles or ints (bit-exact, same machine class:
+// little-endian, 64-bit doubles, as every worker of one batch).
+#include "shapemap/surface/prepared_surface_io.h"
+#include "shapemap/error.h"
+#include <cstdint>
+#include <cstring>
+#include <type_traits>
+
+namespace shapemap {
+namespace {
+
+constexpr char kMagic[8] = {'S', 'M', 'P', 'R', 'E', 'P', '0', '1'};
+
+struct Writer {
+  std::string out;
+  template <class T>
+  void pod(const T& v) {
+    static_assert(std::is_trivially_copyable<T>::value, "raw bytes only");
+    out.append(reinterpret_cast<const char*>(&v), sizeof(T));
+  }
+  template <class T>
+  void raw(const T* p, std::size_t n) { out.append(reinterpret_cast<const char*>(p), n * sizeof(T)); }
+  template <class M>
+  void mat(const M& m) {
+    pod<std::int64_t>(m.rows());
+    pod<std::int64_t>(m.cols());
+    raw(m.data(), std::size_t(m.size()));
+  }
+  template <class T>
+  void vec(const std::vector<T>& v) {
+    pod<std::int64_t>(std::int64_t(v.size()));
+    raw(v.data(), v.size());
+  }
+  void str(const std::string& s) {
+    pod<std::int64_t>(std::int64_t(s.size()));
+    out.append(s);
+  }
+};
+
+struct Reader {
+  const std::string& in;
+  std::size_t at = 0;
+  void need(std::size_t n) {
+    if (n > in.size() - at) throw Error("prepared surface: truncated data");
+  }
+  template <class T>
+  T pod() {
+    need(sizeof(T));
+    T v;
+    std::memcpy(&v, in.data() + at, sizeof(T));
+    at += sizeof(T);
+    return v;
+  }
+  template <class T>
+  void raw(T* p, std::size_t n) {
+    if (n > (in.size() - at) / sizeof(T)) throw Error("prepared surface: truncated data");
+    std::memcpy(p, in.data() + at, n * sizeof(T));
+    at += n * sizeof(T);
+  }
+  std::int64_t count() {
+    const auto n = pod<std::int64_t>();
+    if (n < 0) throw Error("prepared surface: bad size");
+    return n;
+  }
+  template <class M>
+  void mat(M& m) {
+    const auto r = count(), c = count();
+    if (c > 0 && r > std::int64_t(in.size()) / c) throw Error("prepared surface: bad size");
+    m.resize(r, c);
+    raw(m.data(), std::size_t(m.size()));
+  }
+  template <class T>
+  void vec(std::vector<T>& v) {
+    const auto n = count();
+    if (std::size_t(n) > in.size()) throw Error("prepared surface: bad size");
+    v.resize(std::size_t(n));
+    raw(v.data(), v.size());
+  }
+  std::string str() {
+    const auto n = count();
+    need(std::size_t(n));
+    std::string s = in.substr(at, std::size_t(n));
+    at += std::size_t(n);
+    return s;
+  }
+};
+
+void save_map(Writer& w, const BarycentricMap& m) {
+  w.mat(m.elem);
+  w.mat(m.bary);
+}
+
+void load_map(Reader& r, BarycentricMap& m) {
+  r.mat(m.elem);
+  r.mat(m.bary);
+}
+
+// Every BIMOptions field that is a number (landmarks are never part of a prepared surface).
+template <class IO, class O>
+void options_fields(IO&& io, O& o) {
+  io(o.max_features, o.min_features, o.feature_radius, o.max_candidates, o.num_even, o.interpolation_sigma,
+     o.sigma, o.eigenvalue_fraction, o.entry_fraction, o.num_eigenvectors, o.max_groups,
+     o.symmetrize_consistency, o.consistency_skip, o.symmetric, o.reverse_candidates, o.seed,
+     o.heat_t_factor, o.min_vertices);
+}
+
+}  // namespace
+
+std::string save_prepared_surface(const PreparedSurface& p) {
+  if (!p.bim) throw Error("prepared surface: no BIM stage to save");
+  Writer w;
+  w.raw(kMagic, sizeof kMagic);
+  // repair
+  const SurfaceRepair& r = p.repair;
+  w.mat(r.mesh.V);
+  w.mat(r.mesh.F);
+  w.mat(r.vertex_from);
+  w.mat(r.face_from);
+  w.mat(r.input_vertex);
+  save_map(w, r.input_on_repaired);
+  w.pod<std::int64_t>(std::int64_t(r.notes.size()));
+  for (const auto& s : r.notes) w.str(s);
+  // options
+  options_fields([&](auto&... f) { (w.pod(f), ...); }, p.options);
+  w.str(p.options.name_A);
+  w.str(p.options.name_B);
+  // BIM's per-surface stage
+  const BIMSurface& s = *p.bim;
+  w.mat(s.mesh.V);
+  w.mat(s.mesh.F);
+  w.mat(s.V_input);
+  w.mat(s.F_input);
+  w.raw(s.normalization.center.data(), 3);
+  w.pod(s.normalization.scale);
+  w.mat(s.mass);
+  w.vec(s.even);
+  w.vec(s.even_chain);
+  w.mat(s.even_dist);
+  if (!s.interp.isCompressed()) throw Error("prepared surface: interpolation matrix not compressed");
+  w.pod<std::int64_t>(s.interp.rows());
+  w.pod<std::int64_t>(s.interp.cols());
+  w.pod<std::int64_t>(s.interp.nonZeros());
+  w.raw(s.interp.outerIndexPtr(), std::size_t(s.interp.outerSize()) + 1);
+  w.raw(s.interp.innerIndexPtr(), std::size_t(s.interp.nonZeros()));
+  w.raw(s.interp.valuePtr(), std::size_t(s.interp.nonZeros()));
+  w.mat(s.agd);
+  w.vec(s.features);
+  w.mat(s.flat.plane);
+  w.mat(s.flat.sphere);
+  w.mat(s.flat.area_factor);
+  w.pod(s.flat.pole_face);
+  w.pod(s.flat.centroid_norm);
+  w.pod(s.flat.flipped_faces);
+  w.vec(s.hom);
+  w.vec(s.bfs_order);
+  w.vec(s.bfs_parent);
+  w.pod<std::int64_t>(std::int64_t(s.timings.size()));
+  for (const auto& t : s.timings) {
+    w.str(t.first);
+    w.pod(t.second);
+  }
+  return std::move(w.out);
+}
+
+std::shared_ptr<PreparedSurface> load_prepared_surface(const std::string& bytes) {
+  Reader rd{bytes};
+  char magic[sizeof kMagic];
+  rd.raw(magic, sizeof magic);
+  if (std::memcmp(magic, kMagic, sizeof kMagic) != 0)
+    throw Error("prepared surface: not a saved prepared surface (or another format version)");
+  auto p = std::make_shared<PreparedSurface>();
+  SurfaceRepair& r = p->repair;
+  rd.mat(r.mesh.V);
+  rd.mat(r.mesh.F);
+  rd.mat(r.vertex_from);
+  rd.mat(r.face_from);
+  rd.mat(r.input_vertex);
+  load_map(rd, r.input_on_repaired);
+  r.notes.resize(std::size_t(rd.count()));
+  for (auto& s : r.notes) s = rd.str();
+  options_fields([&](auto&... f) { ((f = rd.pod<std::decay_t<decltype(f)>>()), ...); }, p->options);
+  p->options.name_A = rd.str();
+  p->options.name_B = rd.str();
+  auto s = std::make_shared<BIMSurface>();
+  rd.mat(s->mesh.V);
+  rd.mat(s->mesh.F);
+  rd.mat(s->V_input);
+  rd.mat(s->F_input);
+  rd.raw(s->normalization.center.data(), 3);
+  s->normalization.scale = rd.pod<double>();
+  rd.mat(s->mass);
+  rd.vec(s->even);
+  rd.vec(s->even_chain);
+  rd.mat(s->even_dist);
+  {
+    const auto rows = rd.count(), cols = rd.count(), nnz = rd.count();
+    if (std::size_t(rows) > bytes.size() || std::size_t(nnz) > bytes.size()) throw Error("prepared surface: bad size");
+    s->interp.resize(Eigen::Index(rows), Eigen::Index(cols));
+    s->interp.resizeNonZeros(Eigen::Index(nnz));
+    rd.raw(s->interp.outerIndexPtr(), std::size_t(rows) + 1);
+    rd.raw(s->interp.innerIndexPtr(), std::size_t(nnz));
+    rd.raw(s->interp.valuePtr(), std::size_t(nnz));
+  }
+  rd.mat(s->agd);
+  rd.vec(s->features);
+  rd.mat(s->flat.plane);
+  rd.mat(s->flat.sphere);
+  rd.mat(s->flat.area_factor);
+  s->flat.pole_face = rd.pod<int>();
+  s->flat.centroid_norm = rd.pod<double>();
+  s->flat.flipped_faces = rd.pod<int>();
+  rd.vec(s->hom);
+  rd.vec(s->bfs_order);
+  rd.vec(s->bfs_parent);
+  s->timings.resize(std::size_t(rd.count()));
+  for (auto& t : s->timings) {
+    t.first = rd.str();
+    t.second = rd.pod<double>();
+  }
+  if (rd.at != bytes.size()) throw Error("prepared surface: trailing data");
+  // Rebuilt as bim_prepare builds them (deterministic functions of the arrays above).
+  s->locator = std::make_shared<SphereLocator>(s->flat.sphere, s->mesh.F);
+  s->closest = std::make_shared<ClosestPoint3>(s->mesh.V, s->mesh.F);
+  p->bim = std::move(s);
+  return p;
+}
+
+}  // namespace shapemap
