@@ -50,7 +50,10 @@ struct PyProgress {
 
   ProgressCallback function() {
     return [this](const std::string& stage, double fraction) {
-      if (std::this_thread::get_id() != owner || omp_in_parallel()) return;
+      // Never from inside a parallel region, active or not (omp_get_level, not
+      // omp_in_parallel: with one thread the region is inactive, and an exception thrown
+      // there to stop the call would end the process).
+      if (std::this_thread::get_id() != owner || omp_get_level() > 0) return;
       const long long now = std::chrono::duration_cast<std::chrono::milliseconds>(
                                 std::chrono::steady_clock::now().time_since_epoch()).count();
       if (interrupted) throw Interrupted{};
