@@ -266,7 +266,7 @@ SurfaceRepair repair_surface(const TriMesh& in, const std::string& name, const S
   }
   const std::string note = name + ": note: ";
   std::vector<std::string> notes;
-  const int n = int(in.V.rows()), m = int(in.F.rows());
+  const int n = int(in.V.rows());
 
   // 1. Duplicate vertices merged (identical positions, as `shapemap check` counts them).
   const std::vector<int> rep = exact_duplicates(in.V);

@@ -20,6 +20,8 @@ struct Writer {
     out.append(reinterpret_cast<const char*>(&v), sizeof(T));
   }
   template <class T>
+  void field(const T& v) { pod(v); }
+  template <class T>
   void raw(const T* p, std::size_t n) { out.append(reinterpret_cast<const char*>(p), n * sizeof(T)); }
   template <class M>
   void mat(const M& m) {
@@ -58,6 +60,8 @@ struct Reader {
     std::memcpy(p, in.data() + at, n * sizeof(T));
     at += n * sizeof(T);
   }
+  template <class T>
+  void field(T& v) { v = pod<T>(); }
   std::int64_t count() {
     const auto n = pod<std::int64_t>();
     if (n < 0) throw Error("prepared surface: bad size");
@@ -105,6 +109,46 @@ void options_fields(IO&& io, O& o) {
      o.heat_t_factor, o.min_vertices);
 }
 
+// The arrays in their order on disk, one function for saving (Ar = Writer, const data) and
+// loading (Ar = Reader).
+template <class Ar, class Repair>
+void repair_arrays(Ar& a, Repair& r) {
+  a.mat(r.mesh.V);
+  a.mat(r.mesh.F);
+  a.mat(r.vertex_from);
+  a.mat(r.face_from);
+  a.mat(r.input_vertex);
+}
+
+template <class Ar, class Surface>
+void bim_arrays_before_interp(Ar& a, Surface& s) {
+  a.mat(s.mesh.V);
+  a.mat(s.mesh.F);
+  a.mat(s.V_input);
+  a.mat(s.F_input);
+  a.raw(s.normalization.center.data(), 3);
+  a.field(s.normalization.scale);
+  a.mat(s.mass);
+  a.vec(s.even);
+  a.vec(s.even_chain);
+  a.mat(s.even_dist);
+}
+
+template <class Ar, class Surface>
+void bim_arrays_after_interp(Ar& a, Surface& s) {
+  a.mat(s.agd);
+  a.vec(s.features);
+  a.mat(s.flat.plane);
+  a.mat(s.flat.sphere);
+  a.mat(s.flat.area_factor);
+  a.field(s.flat.pole_face);
+  a.field(s.flat.centroid_norm);
+  a.field(s.flat.flipped_faces);
+  a.vec(s.hom);
+  a.vec(s.bfs_order);
+  a.vec(s.bfs_parent);
+}
+
 }  // namespace
 
 std::string save_prepared_surface(const PreparedSurface& p) {
@@ -113,11 +157,7 @@ std::string save_prepared_surface(const PreparedSurface& p) {
   w.raw(kMagic, sizeof kMagic);
   // repair
   const SurfaceRepair& r = p.repair;
-  w.mat(r.mesh.V);
-  w.mat(r.mesh.F);
-  w.mat(r.vertex_from);
-  w.mat(r.face_from);
-  w.mat(r.input_vertex);
+  repair_arrays(w, r);
   save_map(w, r.input_on_repaired);
   w.pod<std::int64_t>(std::int64_t(r.notes.size()));
   for (const auto& s : r.notes) w.str(s);
@@ -127,16 +167,7 @@ std::string save_prepared_surface(const PreparedSurface& p) {
   w.str(p.options.name_B);
   // BIM's per-surface stage
   const BIMSurface& s = *p.bim;
-  w.mat(s.mesh.V);
-  w.mat(s.mesh.F);
-  w.mat(s.V_input);
-  w.mat(s.F_input);
-  w.raw(s.normalization.center.data(), 3);
-  w.pod(s.normalization.scale);
-  w.mat(s.mass);
-  w.vec(s.even);
-  w.vec(s.even_chain);
-  w.mat(s.even_dist);
+  bim_arrays_before_interp(w, s);
   if (!s.interp.isCompressed()) throw Error("prepared surface: interpolation matrix not compressed");
   w.pod<std::int64_t>(s.interp.rows());
   w.pod<std::int64_t>(s.interp.cols());
@@ -144,17 +175,7 @@ std::string save_prepared_surface(const PreparedSurface& p) {
   w.raw(s.interp.outerIndexPtr(), std::size_t(s.interp.outerSize()) + 1);
   w.raw(s.interp.innerIndexPtr(), std::size_t(s.interp.nonZeros()));
   w.raw(s.interp.valuePtr(), std::size_t(s.interp.nonZeros()));
-  w.mat(s.agd);
-  w.vec(s.features);
-  w.mat(s.flat.plane);
-  w.mat(s.flat.sphere);
-  w.mat(s.flat.area_factor);
-  w.pod(s.flat.pole_face);
-  w.pod(s.flat.centroid_norm);
-  w.pod(s.flat.flipped_faces);
-  w.vec(s.hom);
-  w.vec(s.bfs_order);
-  w.vec(s.bfs_parent);
+  bim_arrays_after_interp(w, s);
   w.pod<std::int64_t>(std::int64_t(s.timings.size()));
   for (const auto& t : s.timings) {
     w.str(t.first);
@@ -171,11 +192,7 @@ std::shared_ptr<PreparedSurface> load_prepared_surface(const std::string& bytes)
     throw Error("prepared surface: not a saved prepared surface (or another format version)");
   auto p = std::make_shared<PreparedSurface>();
   SurfaceRepair& r = p->repair;
-  rd.mat(r.mesh.V);
-  rd.mat(r.mesh.F);
-  rd.mat(r.vertex_from);
-  rd.mat(r.face_from);
-  rd.mat(r.input_vertex);
+  repair_arrays(rd, r);
   load_map(rd, r.input_on_repaired);
   r.notes.resize(std::size_t(rd.count()));
   for (auto& s : r.notes) s = rd.str();
@@ -183,16 +200,7 @@ std::shared_ptr<PreparedSurface> load_prepared_surface(const std::string& bytes)
   p->options.name_A = rd.str();
   p->options.name_B = rd.str();
   auto s = std::make_shared<BIMSurface>();
-  rd.mat(s->mesh.V);
-  rd.mat(s->mesh.F);
-  rd.mat(s->V_input);
-  rd.mat(s->F_input);
-  rd.raw(s->normalization.center.data(), 3);
-  s->normalization.scale = rd.pod<double>();
-  rd.mat(s->mass);
-  rd.vec(s->even);
-  rd.vec(s->even_chain);
-  rd.mat(s->even_dist);
+  bim_arrays_before_interp(rd, *s);
   {
     const auto rows = rd.count(), cols = rd.count(), nnz = rd.count();
     if (std::size_t(rows) > bytes.size() || std::size_t(nnz) > bytes.size()) throw Error("prepared surface: bad size");
@@ -202,17 +210,7 @@ std::shared_ptr<PreparedSurface> load_prepared_surface(const std::string& bytes)
     rd.raw(s->interp.innerIndexPtr(), std::size_t(nnz));
     rd.raw(s->interp.valuePtr(), std::size_t(nnz));
   }
-  rd.mat(s->agd);
-  rd.vec(s->features);
-  rd.mat(s->flat.plane);
-  rd.mat(s->flat.sphere);
-  rd.mat(s->flat.area_factor);
-  s->flat.pole_face = rd.pod<int>();
-  s->flat.centroid_norm = rd.pod<double>();
-  s->flat.flipped_faces = rd.pod<int>();
-  rd.vec(s->hom);
-  rd.vec(s->bfs_order);
-  rd.vec(s->bfs_parent);
+  bim_arrays_after_interp(rd, *s);
   s->timings.resize(std::size_t(rd.count()));
   for (auto& t : s->timings) {
     t.first = rd.str();
