@@ -38,6 +38,15 @@ struct Writer {
     pod<std::int64_t>(std::int64_t(s.size()));
     out.append(s);
   }
+  void sparse(const Eigen::SparseMatrix<double, Eigen::RowMajor>& m) {
+    if (!m.isCompressed()) throw Error("prepared surface: interpolation matrix not compressed");
+    pod<std::int64_t>(m.rows());
+    pod<std::int64_t>(m.cols());
+    pod<std::int64_t>(m.nonZeros());
+    raw(m.outerIndexPtr(), std::size_t(m.outerSize()) + 1);
+    raw(m.innerIndexPtr(), std::size_t(m.nonZeros()));
+    raw(m.valuePtr(), std::size_t(m.nonZeros()));
+  }
 };
 
 struct Reader {
@@ -62,6 +71,16 @@ struct Reader {
   }
   template <class T>
   void field(T& v) { v = pod<T>(); }
+  void sparse(Eigen::SparseMatrix<double, Eigen::RowMajor>& m) {
+    const auto rows = count(), cols = count(), nnz = count();
+    if (std::size_t(rows) > in.size() || std::size_t(nnz) > in.size()) throw Error("prepared surface: bad size");
+    m.resize(Eigen::Index(rows), Eigen::Index(cols));
+    m.resizeNonZeros(Eigen::Index(nnz));
+    raw(m.outerIndexPtr(), std::size_t(rows) + 1);
+    raw(m.innerIndexPtr(), std::size_t(nnz));
+    raw(m.valuePtr(), std::size_t(nnz));
+  }
+
   std::int64_t count() {
     const auto n = pod<std::int64_t>();
     if (n < 0) throw Error("prepared surface: bad size");
@@ -121,7 +140,7 @@ void repair_arrays(Ar& a, Repair& r) {
 }
 
 template <class Ar, class Surface>
-void bim_arrays_before_interp(Ar& a, Surface& s) {
+void bim_arrays(Ar& a, Surface& s) {
   a.mat(s.mesh.V);
   a.mat(s.mesh.F);
   a.mat(s.V_input);
@@ -132,10 +151,7 @@ void bim_arrays_before_interp(Ar& a, Surface& s) {
   a.vec(s.even);
   a.vec(s.even_chain);
   a.mat(s.even_dist);
-}
-
-template <class Ar, class Surface>
-void bim_arrays_after_interp(Ar& a, Surface& s) {
+  a.sparse(s.interp);
   a.mat(s.agd);
   a.vec(s.features);
   a.mat(s.flat.plane);
@@ -167,15 +183,7 @@ std::string save_prepared_surface(const PreparedSurface& p) {
   w.str(p.options.name_B);
   // BIM's per-surface stage
   const BIMSurface& s = *p.bim;
-  bim_arrays_before_interp(w, s);
-  if (!s.interp.isCompressed()) throw Error("prepared surface: interpolation matrix not compressed");
-  w.pod<std::int64_t>(s.interp.rows());
-  w.pod<std::int64_t>(s.interp.cols());
-  w.pod<std::int64_t>(s.interp.nonZeros());
-  w.raw(s.interp.outerIndexPtr(), std::size_t(s.interp.outerSize()) + 1);
-  w.raw(s.interp.innerIndexPtr(), std::size_t(s.interp.nonZeros()));
-  w.raw(s.interp.valuePtr(), std::size_t(s.interp.nonZeros()));
-  bim_arrays_after_interp(w, s);
+  bim_arrays(w, s);
   w.pod<std::int64_t>(std::int64_t(s.timings.size()));
   for (const auto& t : s.timings) {
     w.str(t.first);
@@ -200,17 +208,7 @@ std::shared_ptr<PreparedSurface> load_prepared_surface(const std::string& bytes)
   p->options.name_A = rd.str();
   p->options.name_B = rd.str();
   auto s = std::make_shared<BIMSurface>();
-  bim_arrays_before_interp(rd, *s);
-  {
-    const auto rows = rd.count(), cols = rd.count(), nnz = rd.count();
-    if (std::size_t(rows) > bytes.size() || std::size_t(nnz) > bytes.size()) throw Error("prepared surface: bad size");
-    s->interp.resize(Eigen::Index(rows), Eigen::Index(cols));
-    s->interp.resizeNonZeros(Eigen::Index(nnz));
-    rd.raw(s->interp.outerIndexPtr(), std::size_t(rows) + 1);
-    rd.raw(s->interp.innerIndexPtr(), std::size_t(nnz));
-    rd.raw(s->interp.valuePtr(), std::size_t(nnz));
-  }
-  bim_arrays_after_interp(rd, *s);
+  bim_arrays(rd, *s);
   s->timings.resize(std::size_t(rd.count()));
   for (auto& t : s->timings) {
     t.first = rd.str();
