@@ -861,6 +861,11 @@ class Landing {
       sliding_repair(X);
       consider(X);
     }
+    if (landed && best_count > 0) {  // the located map's own inverted tets (snapped rows): cat -> lion B -> A 5 -> 3
+      Eigen::MatrixXd Y = best;
+      sliding_repair(Y);
+      consider(Y);
+    }
     X = best;
     located = best_map;
     return landed;
