@@ -130,21 +130,19 @@ void options_fields(IO&& io, O& o) {
 
 // The arrays in their order on disk, one function for saving (Ar = Writer, const data) and
 // loading (Ar = Reader).
+template <class Ar, class... M>
+void matrices(Ar& a, M&... m) {
+  (a.mat(m), ...);
+}
+
 template <class Ar, class Repair>
 void repair_arrays(Ar& a, Repair& r) {
-  a.mat(r.mesh.V);
-  a.mat(r.mesh.F);
-  a.mat(r.vertex_from);
-  a.mat(r.face_from);
-  a.mat(r.input_vertex);
+  matrices(a, r.mesh.V, r.mesh.F, r.vertex_from, r.face_from, r.input_vertex);
 }
 
 template <class Ar, class Surface>
 void bim_arrays(Ar& a, Surface& s) {
-  a.mat(s.mesh.V);
-  a.mat(s.mesh.F);
-  a.mat(s.V_input);
-  a.mat(s.F_input);
+  matrices(a, s.mesh.V, s.mesh.F, s.V_input, s.F_input);
   a.raw(s.normalization.center.data(), 3);
   a.field(s.normalization.scale);
   a.mat(s.mass);
