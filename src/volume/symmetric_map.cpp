@@ -317,6 +317,18 @@ double DirectionalEnergy::evaluate(const Eigen::MatrixXd& X, Eigen::MatrixXd* gr
     for (int w = 0; w < nj; ++w) sum_r += er_(w);
     t.reversibility = sum_r / (cj_ * cj_);
   }
+  projection_terms(X, grad, all, t);
+  last_X_ = X;
+  t.total = alpha_ * t.arap + (1 - alpha_) * t.reversibility +
+            gamma_ * (t.projection_forward + bscale_ * t.projection_backward) + beta_ * t.auxiliary +
+            t.barrier;
+  if (terms) *terms = t;
+  return t.total;
+}
+
+// E_P,f (Eq. 21) and E_P,b (Eq. 22) into t, their gradients added to *grad if non-null.
+void DirectionalEnergy::projection_terms(const Eigen::MatrixXd& X, Eigen::MatrixXd* grad, bool all,
+                                         Terms& t) const {
   // E_P,f (Eq. 21): boundary vertices of M_i at X, to dM_j.
   if (gamma_ != 0 || all) {
     const int nb = int(bi_.to_volume.size());
@@ -365,12 +377,6 @@ double DirectionalEnergy::evaluate(const Eigen::MatrixXd& X, Eigen::MatrixXd* gr
       t.projection_backward = e2 / sj_;
     }
   }
-  last_X_ = X;
-  t.total = alpha_ * t.arap + (1 - alpha_) * t.reversibility +
-            gamma_ * (t.projection_forward + bscale_ * t.projection_backward) + beta_ * t.auxiliary +
-            t.barrier;
-  if (terms) *terms = t;
-  return t.total;
 }
 
 namespace {

@@ -232,6 +232,8 @@ class DirectionalEnergy {
   double area_i() const { return si_; }
 
  private:
+  void projection_terms(const Eigen::MatrixXd& X, Eigen::MatrixXd* grad, bool all, Terms& t) const;
+
   TetMesh Mi_, Mj_;
   ArapEnergy arap_;
   TetBoundary bi_, bj_;
