@@ -284,6 +284,11 @@ CLI::App* add_volume_map_command(CLI::App& parent, VolumeMapArgs& a) {
                     "vertices left off the target")
       ->capture_default_str()
       ->check(CLI::Range(0, 20));
+  app->add_option("--land-pull-rounds", a.opt.land_pull_rounds,
+                    "Landing with the barrier: rounds that pull images still outside the target to "
+                    "points just inside it (ours; 0 = off)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 50));
   app->add_option("--land-barrier", a.opt.land_barrier_floor,
                     "Landing: log barrier on det J below this, so that no tet positive at its start "
                     "turns over (ours; 0 = off)")

@@ -318,12 +318,24 @@ double DirectionalEnergy::evaluate(const Eigen::MatrixXd& X, Eigen::MatrixXd* gr
     t.reversibility = sum_r / (cj_ * cj_);
   }
   projection_terms(X, grad, all, t);
+  for (size_t q = 0; q < anchor_rows_.size(); ++q) {
+    const Eigen::RowVector3d d = X.row(anchor_rows_[q]) - anchor_pts_.row(Eigen::Index(q));
+    t.anchors += anchor_k_ * d.squaredNorm();
+    if (grad) grad->row(anchor_rows_[q]) += (2.0 * anchor_k_) * d;
+  }
   last_X_ = X;
   t.total = alpha_ * t.arap + (1 - alpha_) * t.reversibility +
             gamma_ * (t.projection_forward + bscale_ * t.projection_backward) + beta_ * t.auxiliary +
-            t.barrier;
+            t.barrier + t.anchors;
   if (terms) *terms = t;
   return t.total;
+}
+
+void DirectionalEnergy::set_anchors(const std::vector<int>& rows, const Eigen::MatrixXd& A, double k) {
+  if (A.rows() != Eigen::Index(rows.size())) throw Error("DirectionalEnergy::set_anchors: one point per row");
+  anchor_rows_ = rows;
+  anchor_pts_ = A;
+  anchor_k_ = rows.empty() ? 0.0 : k;
 }
 
 // E_P,f (Eq. 21) and E_P,b (Eq. 22) into t, their gradients added to *grad if non-null.
@@ -409,6 +421,7 @@ void DirectionalEnergy::add_hessian(const Eigen::MatrixXd& X, BlockHessian& H) c
   const int ni = Mi_.num_vertices(), nj = Mj_.num_vertices();
   if (alpha_ != 0) arap_.add_hessian(X, alpha_, H);  // Eq. 20
   if (barrier_) barrier_->add_hessian(X, 1.0, H);
+  for (int v : anchor_rows_) H.add_diagonal(v, 2.0 * anchor_k_);
   // E_Q (Eq. 17): 2 beta/(c_i c_j) C_i(v) I per vertex.
   const double sq = 2.0 * beta_ / (ci_ * cj_);
   if (sq != 0)
@@ -664,6 +677,12 @@ void inverted_neighbourhood(const ArapEnergy& arap, const Eigen::MatrixXd& X, in
 // Insets toward the target's interior of the landing (fractions of the way from the closest
 // point on dM_j to the inner corner of the target tet behind it).
 constexpr double kLandInset[] = {0.0, 0.02, 0.05, 0.1, 0.2, 0.4};
+constexpr double kPullInset = 0.05;
+// A landing move keeps a tet if its det J stays above this (or above its det J before the
+// move, when that is smaller): det J > 0 alone let the projection leave tets with four
+// boundary corners at det J ~ 1e-15 (cat -> lion A -> B: 23 below 1e-6), flat in effect,
+// and their barrier gradients (~1e13) stalled every later Newton step.
+constexpr double kLandMinDet = 1e-3;  // pull_inside: anchors 5% of the way to their tet's centre
 
 // A boundary vertex v whose closest point p flattens some of its tets (typically slivers with
 // four boundary corners, the other three already on one plane of dM_j): put v at p and, per
@@ -676,21 +695,22 @@ bool fit_by_insetting_neighbours(int v, const Eigen::RowVector3d& p, const Det& 
                                  const ClosestPoint3& target, const TargetOf& target_of,
                                  const std::vector<char>& on_bd, std::vector<char>& is_surface,
                                  Eigen::MatrixXd& X) {
-  std::vector<int> bad;
+  std::vector<std::pair<int, double>> bad;
   for (int k : vt[v])
-    if (det(k) > 0) bad.push_back(k);  // positive before: the tets to keep positive
+    if (det(k) > 0) bad.emplace_back(k, det(k));  // positive before: the tets to keep positive
+  auto kept = [&](int k, double before) { return det(k) > std::min(kLandMinDet, before); };
   const Eigen::RowVector3d x0 = X.row(v);
   X.row(v) = p;
   std::vector<std::pair<int, Eigen::RowVector3d>> moved;  // (corner, old position)
-  for (int k : bad) {
-    if (det(k) > 0) continue;
+  for (const auto& [k, k_before] : bad) {
+    if (kept(k, k_before)) continue;
     bool fixed = false;
     for (int c = 0; c < 4 && !fixed; ++c) {
       const int w = T(k, c);
       if (w == v || !on_bd[w]) continue;
-      std::vector<int> keep;
+      std::vector<std::pair<int, double>> keep;
       for (int kw : vt[w])
-        if (kw != k && det(kw) > 0) keep.push_back(kw);
+        if (kw != k && det(kw) > 0) keep.emplace_back(kw, det(kw));
       Eigen::MatrixXd q = X.row(w);
       Eigen::RowVector3d pw, apex;
       target_of(target.query(q)[0], pw, apex);
@@ -698,8 +718,8 @@ bool fit_by_insetting_neighbours(int v, const Eigen::RowVector3d& p, const Det& 
       for (double s : kLandInset) {
         if (s == 0) continue;
         X.row(w) = (1 - s) * pw + s * apex;
-        bool ok = det(k) > 0;
-        for (int kw : keep) ok = ok && det(kw) > 0;
+        bool ok = kept(k, k_before);
+        for (const auto& [kw, kw_before] : keep) ok = ok && kept(kw, kw_before);
         if (ok) {
           fixed = true;
           moved.emplace_back(w, xw);
@@ -712,7 +732,7 @@ bool fit_by_insetting_neighbours(int v, const Eigen::RowVector3d& p, const Det& 
   }
   // A later inset may have turned an earlier tet of v over again: check them all.
   bool all = true;
-  for (int k : bad) all = all && det(k) > 0;
+  for (const auto& [k, k_before] : bad) all = all && kept(k, k_before);
   if (!all) {
     for (auto it = moved.rbegin(); it != moved.rend(); ++it) X.row(it->first) = it->second;
     X.row(v) = x0;
@@ -758,13 +778,13 @@ void project_keeping_positive(const ArapEnergy& arap, const std::vector<std::vec
   };
   std::vector<char> is_surface(X.rows(), 0);
   for (int v : on_surface) is_surface[v] = 1;
-  std::vector<int> positive;
+  std::vector<std::pair<int, double>> positive;  // (tet, det J before)
   failing.clear();
   for (size_t b = 0; b < rows.size(); ++b) {
     const int v = rows[b];
     positive.clear();
     for (int k : vt[v])
-      if (det(k) > 0) positive.push_back(k);
+      if (det(k) > 0) positive.emplace_back(k, det(k));
     Eigen::RowVector3d p, apex;
     target_of(hit[b], p, apex);
     const Eigen::RowVector3d x0 = X.row(v);
@@ -772,7 +792,7 @@ void project_keeping_positive(const ArapEnergy& arap, const std::vector<std::vec
     for (double s : kLandInset) {
       X.row(v) = (1 - s) * p + s * apex;
       ok = true;
-      for (int k : positive) ok = ok && det(k) > 0;
+      for (const auto& [k, before] : positive) ok = ok && det(k) > std::min(kLandMinDet, before);
       if (ok) {
         if (s == 0) is_surface[v] = 1;
         break;
@@ -815,7 +835,8 @@ class Landing {
           const std::vector<std::vector<int>>& vv, const std::vector<std::vector<int>>& vt,
           const SymmetricVolumeMapOptions& opt, SymmetricMapStage& st)
       : e_(e), Mi_(Mi), Mj_(Mj), interior_(interior), vv_(vv), vt_(vt), opt_(opt), st_(st),
-        bj_(e.boundary_j()), target_(bj_.surface.V, bj_.surface.F), barrier_(e.arap(), opt.land_barrier_floor) {
+        bj_(e.boundary_j()), target_(bj_.surface.V, bj_.surface.F), locator_(Mj.V, Mj.T),
+        barrier_(e.arap(), opt.land_barrier_floor) {
     const TetBoundary& bi = e.boundary_i();
     brows_.assign(bi.to_volume.data(), bi.to_volume.data() + bi.to_volume.size());
     on_bd_.assign(Mi.num_vertices(), 0);
@@ -841,6 +862,7 @@ class Landing {
       surface_rows = brows_;
     }
     relax(X, interior_, e_.gamma());
+    if (opt_.land_barrier_floor > 0) pull_inside(X, surface_rows);
     e_.set_barrier(nullptr);
     // Located in M_j (interior images that still fall outside are snapped too) as it is, and
     // after the sliding repair when tets are inverted; the one of these and the snapped X
@@ -950,6 +972,56 @@ class Landing {
     return surface_rows;
   }
 
+  // Step 3b: images still outside M_j after the projection (boundary vertices that no local
+  // move put on or into M_j with their tets positive, and interior vertices pushed out with
+  // them) are pulled to anchors just inside M_j (their closest point in M_j, moved 5% toward
+  // the centre of its tet) by springs that stiffen each round, the interior and these
+  // vertices free, the barrier on: located where they end, they need no snapping (the snap
+  // turned 154 tets over on cat -> lion A -> B, 38 rows).
+  void pull_inside(Eigen::MatrixXd& X, std::vector<int>& surface_rows) {
+    std::vector<char> on_surface(Mi_.num_vertices(), 0), is_free(Mi_.num_vertices(), 0);
+    for (int v : surface_rows) on_surface[v] = 1;
+    // Eq. 21 weighs boundary vertex b by gamma a_b / s_i, gamma / n_boundary on average; the
+    // springs start at 100x that and stiffen 10x per round up to 1e5x.
+    const double k0 = 100.0 * g_last_ / double(std::max<size_t>(brows_.size(), 1));
+    for (int round = 0; round < opt_.land_pull_rounds; ++round) {
+      const std::vector<ClosestPointResult> r = locator_.locate(X);
+      std::vector<int> out;
+      for (int v = 0; v < Mi_.num_vertices(); ++v)
+        if (!on_surface[v] && r[v].sqdist > 1e-20) out.push_back(v);
+      if (out.empty()) break;
+      Eigen::MatrixXd A(out.size(), 3);
+      for (size_t q = 0; q < out.size(); ++q) {
+        const ClosestPointResult& h = r[out[q]];
+        Eigen::RowVector3d p = Eigen::RowVector3d::Zero(), c = Eigen::RowVector3d::Zero();
+        for (int k = 0; k < 4; ++k) {
+          p += h.bary(k) * Mj_.V.row(Mj_.T(h.elem, k));
+          c += 0.25 * Mj_.V.row(Mj_.T(h.elem, k));
+        }
+        A.row(Eigen::Index(q)) = p + kPullInset * (c - p);
+      }
+      // Free: the interior, these rows and their neighbours (boundary neighbours make room;
+      // they leave dM_j and are located, or snapped, where they end). Rings grown further,
+      // or the neighbours put back on dM_j after each round, left more tets inverted on
+      // cat -> lion (40 and 53 against 37).
+      std::fill(is_free.begin(), is_free.end(), 0);
+      for (int v : interior_) is_free[v] = 1;
+      for (int v : out) {
+        is_free[v] = 1;
+        for (int w : vv_[v]) is_free[w] = 1;
+      }
+      std::vector<int> free;
+      for (int v = 0; v < Mi_.num_vertices(); ++v)
+        if (is_free[v]) free.push_back(v);
+      e_.set_anchors(out, A, k0 * std::pow(10.0, std::min(round, 3)));
+      relax(X, free, g_last_);
+      e_.set_anchors({}, Eigen::MatrixXd(0, 3), 0);
+      for (int v : free) on_surface[v] = on_surface[v] && !on_bd_[v];
+    }
+    surface_rows.erase(std::remove_if(surface_rows.begin(), surface_rows.end(), [&](int v) { return !on_surface[v]; }),
+                       surface_rows.end());
+  }
+
   // Step 4: repair of inverted tets (stage 5's energy, with the sigma penalty) in which
   // boundary vertices may slide: held near dM_j by a stiff closest-point spring, and near
   // where the round found them by a softer one (land_slide_anchor; without it they slid off
@@ -996,6 +1068,7 @@ class Landing {
   SymmetricMapStage& st_;
   const TetBoundary& bj_;
   ClosestPoint3 target_;
+  TetLocator locator_;  // M_j's tets
   InversionBarrier barrier_;
   NewtonOptions no_;
   std::vector<int> brows_;

@@ -99,8 +99,14 @@ TEST_P(DirectionalEnergyGradient, MatchesFiniteDifferences) {
     case 4: e.set_weights(0.0, 0.0, 1.0, 1.0); break;   // + E_P,b (Eq. 22)
     default: e.set_weights(0.5, 2.0, 25.0, 1.0); break; // Eq. 25
   }
+  if (GetParam() == 6) {  // + the landing's anchors (pull_inside)
+    Eigen::MatrixXd A(2, 3);
+    A << 0.1, 0.2, 0.3, -0.2, 0.4, 0.1;
+    e.set_anchors({0, 5}, A, 3.0);
+  }
   DirectionalEnergy::Terms t;
   e.evaluate(X, nullptr, &t);
+  if (GetParam() == 6) EXPECT_GT(t.anchors, 0);
   EXPECT_GT(t.arap, 0);
   EXPECT_GT(t.reversibility, 0);
   EXPECT_GT(t.auxiliary, 0);
@@ -108,7 +114,7 @@ TEST_P(DirectionalEnergyGradient, MatchesFiniteDifferences) {
   EXPECT_GT(t.projection_backward, 0);
   EXPECT_LT(gradient_error(e, X), 1e-5);
 }
-INSTANTIATE_TEST_SUITE_P(Terms, DirectionalEnergyGradient, ::testing::Range(0, 6));
+INSTANTIATE_TEST_SUITE_P(Terms, DirectionalEnergyGradient, ::testing::Range(0, 7));
 
 // The Hessian of the X-step objective (issue 19, projected Newton): every term but E_P,b
 // is exact, so at a stretched map (where ARAP's projection changes nothing) it equals
@@ -130,6 +136,11 @@ TEST_P(DirectionalEnergyHessian, MatchesFiniteDifferencesOfTheGradient) {
     case 2: e.set_weights(0.0, 3.0, 0.0, 0.0); break;   // + E_Q
     case 3: e.set_weights(0.0, 0.0, 5.0, 0.0); break;   // + E_P,f
     default: e.set_weights(0.5, 2.0, 25.0, 0.0); break; // all but E_P,b
+  }
+  if (GetParam() == 5) {  // + the landing's anchors (pull_inside)
+    Eigen::MatrixXd A(2, 3);
+    A << 0.1, 0.2, 0.3, -0.2, 0.4, 0.1;
+    e.set_anchors({1, 4}, A, 7.0);
   }
   const int n = p.A.num_vertices();
   std::vector<int> all(n);
@@ -154,7 +165,7 @@ TEST_P(DirectionalEnergyHessian, MatchesFiniteDifferencesOfTheGradient) {
   EXPECT_GT(scale, 0);
   EXPECT_LT(err, 1e-5 * scale);
 }
-INSTANTIATE_TEST_SUITE_P(Terms, DirectionalEnergyHessian, ::testing::Range(0, 5));
+INSTANTIATE_TEST_SUITE_P(Terms, DirectionalEnergyHessian, ::testing::Range(0, 6));
 
 // From an inverted, collapsed start with every term of Eq. 25 (E_P,b by Gauss-Newton), the
 // assembled Hessian is positive semi-definite and each Newton step lowers the energy.

@@ -101,6 +101,10 @@ struct SymmetricVolumeMapOptions {
   // With the barrier: passes in which the interior and the boundary vertices that could not
   // be put on dM_j relax (gamma at its last continuation value), then try again (ours).
   int land_passes = 3;
+  // With the barrier: rounds that pull images still outside M_j (after the passes) to anchors
+  // just inside it, with springs that stiffen each round (ours; cat -> lion A -> B: 38 rows
+  // outside, whose snap turned 154 tets over; with 6 rounds 37 inverted, B -> A 0). 0 = off.
+  int land_pull_rounds = 6;
   bool fix_boundary_first = true;  // Algorithm 1 lines 6-10 (stage 2): boundary of X fixed,
                                    // boundary rows of P restored each iteration
   bool boundary_to_boundary = false;  // Sec. 5.2: hard constraint P in P*_ij (boundary rows
@@ -200,7 +204,7 @@ class DirectionalEnergy {
  public:
   struct Terms {
     double arap = 0, reversibility = 0, projection_forward = 0, projection_backward = 0,
-           auxiliary = 0, barrier = 0, total = 0;  // unweighted terms, total = weighted sum
+           auxiliary = 0, barrier = 0, anchors = 0, total = 0;  // unweighted terms, total = weighted sum
   };
   DirectionalEnergy(const TetMesh& Mi, const TetMesh& Mj);
   void set_weights(double alpha, double beta, double gamma, double backward_scale = 1.0);
@@ -213,6 +217,9 @@ class DirectionalEnergy {
   // Adds the inversion barrier (landing stage, inversion_barrier.h) to Eq. 25 with weight
   // 1, or removes it (nullptr). Kept by pointer: the caller owns it.
   void set_barrier(const InversionBarrier* barrier) { barrier_ = barrier; }
+  // Adds k sum_r |X_r - A_r|^2 over `rows` (landing stage: pulls images that lie outside
+  // M_j to points just inside it), or removes it (empty rows). Copies its arguments.
+  void set_anchors(const std::vector<int>& rows, const Eigen::MatrixXd& A, double k);
   // Eq. 25 (X_ij part). X: n_i×3; grad n_i×3 if non-null.
   double evaluate(const Eigen::MatrixXd& X, Eigen::MatrixXd* grad = nullptr,
                   Terms* terms = nullptr) const;
@@ -243,6 +250,9 @@ class DirectionalEnergy {
   double alpha_ = 0.5, beta_ = 0.25, gamma_ = 25, bscale_ = 1;
   Eigen::MatrixXi Fi_vol_;           // boundary faces of M_i in volume numbering
   const InversionBarrier* barrier_ = nullptr;
+  std::vector<int> anchor_rows_;     // set_anchors
+  Eigen::MatrixXd anchor_pts_;
+  double anchor_k_ = 0;
   ClosestPoint3 target_boundary_;    // dM_j (static)
   mutable ClosestPoint3 mapped_boundary_;  // dF_i(X): refit per evaluation
   mutable bool mapped_built_ = false;
