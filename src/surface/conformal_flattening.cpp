@@ -22,7 +22,7 @@ double spherical_triangle_area(const Eigen::Vector3d& a, const Eigen::Vector3d& 
 Eigen::MatrixXd dipole_flattening(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, int pole) {
   const int n = int(V.rows());
   if (pole < 0 || pole >= F.rows()) throw Error("dipole flattening: pole face out of range");
-  Eigen::SparseMatrix<double> L = cotan_laplacian(V, F);
+  Eigen::SparseMatrix<double> L = drop_negative_weights(cotan_laplacian(V, F));
   const int A = F(pole, 0), B = F(pole, 1), C = F(pole, 2);
   Eigen::Vector3d pa = V.row(A).transpose(), pb = V.row(B).transpose(), pc = V.row(C).transpose();
   double lab = (pb - pa).norm();
