@@ -14,7 +14,8 @@ namespace shapemap {
 
 double spherical_triangle_area(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
                                const Eigen::Vector3d& c) {
-  double num = std::abs(a.dot(b.cross(c)));
+  // a . ((b - a) x (c - a)) = det[a, b, c], precise for tiny faces (unlike a . (b x c)).
+  double num = std::abs(a.dot((b - a).cross(c - a)));
   double den = 1 + a.dot(b) + b.dot(c) + c.dot(a);
   return 2 * std::atan2(num, den);
 }
@@ -124,7 +125,7 @@ ConformalFlattening conformal_flattening(const Eigen::MatrixXd& V, const Eigen::
     for (int f = 0; f < m; ++f) {
       if (f == out.pole_face) continue;
       Eigen::Vector3d a = S.row(F(f, 0)), b = S.row(F(f, 1)), c = S.row(F(f, 2));
-      double t = a.dot(b.cross(c));
+      double t = a.dot((b - a).cross(c - a));
       (t > 0 ? pos : neg) += std::abs(t);
     }
     return pos - neg;
@@ -160,7 +161,7 @@ ConformalFlattening conformal_flattening(const Eigen::MatrixXd& V, const Eigen::
   for (int f = 0; f < m; ++f) {
     Eigen::Vector3d a = out.sphere.row(F(f, 0)), b = out.sphere.row(F(f, 1)), c = out.sphere.row(F(f, 2));
     double s = spherical_triangle_area(a, b, c);
-    if (a.dot(b.cross(c)) < 0) ++out.flipped_faces;
+    if (a.dot((b - a).cross(c - a)) < 0) ++out.flipped_faces;
     for (int k = 0; k < 3; ++k) {
       sa(F(f, k)) += s;
       ma(F(f, k)) += fa(f);
