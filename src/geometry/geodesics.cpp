@@ -56,7 +56,12 @@ HeatGeodesics::HeatGeodesics(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
   Eigen::VectorXd heat_diag = mass_, poisson_diag = (kPoissonEps / (h * h)) * mass_;
   for (Eigen::Index i = 0; i < n; ++i)
     if (!(mass_(i) > 0)) heat_diag(i) = poisson_diag(i) = 1.0;
-  heat_.compute(plus_diagonal(L, t, heat_diag));        // (M + t L) u = delta  (Alg. 1, step I)
+  // (M + t L+) u = delta (Alg. 1, step I) with L+ the cotan Laplacian without its negative
+  // weights: an M-matrix, so u > 0 everywhere (the maximum principle). With the cotan weights
+  // as they are, u changes sign on non-Delaunay meshes (camel-gallop-03: 3,958 of 5,002
+  // vertices negative from a foot; TOSCA's cat: 182 from vertex 0), the direction field
+  // -grad u / |grad u| turns around there and the distances break (docs/methods.md).
+  heat_.compute(plus_diagonal(drop_negative_weights(L), t, heat_diag));
   poisson_.compute(plus_diagonal(L, 1.0, poisson_diag)); // L phi = -div X      (Alg. 1, step III)
 
   area_.resize(m);

@@ -168,6 +168,23 @@ Eigen::SparseMatrix<double> weighted_cotan(const Eigen::MatrixXd& V, const Eigen
 
 }  // namespace
 
+Eigen::SparseMatrix<double> drop_negative_weights(const Eigen::SparseMatrix<double>& L) {
+  std::vector<Eigen::Triplet<double>> trip;
+  trip.reserve(size_t(L.nonZeros()));
+  Eigen::VectorXd diag = Eigen::VectorXd::Zero(L.rows());
+  for (int col = 0; col < L.outerSize(); ++col)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(L, col); it; ++it)
+      if (it.row() != it.col() && it.value() < 0) {  // off-diagonal -w with w > 0: kept
+        trip.emplace_back(int(it.row()), int(it.col()), it.value());
+        diag(it.row()) -= it.value();
+      }
+  for (Eigen::Index i = 0; i < L.rows(); ++i) trip.emplace_back(int(i), int(i), diag(i));
+  Eigen::SparseMatrix<double> R(L.rows(), L.cols());
+  R.setFromTriplets(trip.begin(), trip.end());
+  R.makeCompressed();
+  return R;
+}
+
 Eigen::SparseMatrix<double> cotan_laplacian(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F) {
   return weighted_cotan(V, F, nullptr);
 }

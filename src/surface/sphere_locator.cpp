@@ -59,6 +59,20 @@ int SphereLocator::cell_of(const Eigen::Vector3d& x) const {
   return (c * grid_ + iu) * grid_ + iv;
 }
 
+namespace {
+// x's unnormalized barycentric coordinates in the spherical face (a, b, c): the triple
+// products det[x, b, c], det[x, c, a], det[x, a, b], each computed as det[x, b - x, c - x]
+// etc. (the same determinant). The differences are small and exact to a few ulps when x is
+// near the face, so the coordinates keep their relative precision in faces far smaller than
+// the rounding of a unit vector: x . (b x c) directly loses everything below ~1e-16 (the
+// camels' flattened feet have sphere edges of 1e-10 and triple products of 1e-20).
+inline Eigen::Vector3d triple_coords(const Eigen::Vector3d& x, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                     const Eigen::Vector3d& c) {
+  const Eigen::Vector3d p = a - x, q = b - x, r = c - x;
+  return Eigen::Vector3d(x.dot(q.cross(r)), x.dot(r.cross(p)), x.dot(p.cross(q)));
+}
+}  // namespace
+
 int SphereLocator::walk_or_scan(const Eigen::Vector3d& x, int start) const {
   return locate_from(x, start, max_steps_, nullptr).face;
 }
@@ -69,7 +83,7 @@ SphereLocator::Location SphereLocator::scan(const Eigen::Vector3d& x) const {
   double best_score = -1e300;
   for (int f = 0; f < F_.rows(); ++f) {
     const Eigen::Vector3d &a = S_[F_(f, 0)], &b = S_[F_(f, 1)], &c = S_[F_(f, 2)];
-    Eigen::Vector3d l(x.dot(b.cross(c)), x.dot(c.cross(a)), x.dot(a.cross(b)));
+    const Eigen::Vector3d l = triple_coords(x, a, b, c);
     double s = l.sum();
     if (!(s > 0)) continue;
     double score = l.minCoeff() / s;
@@ -116,7 +130,8 @@ SphereLocator::Location SphereLocator::walk(const Eigen::Vector3d& x, int f, int
   int prev = -1;
   for (int step = 0; step < cap; ++step) {
     const Eigen::Vector3d &a = S_[F_(f, 0)], &b = S_[F_(f, 1)], &c = S_[F_(f, 2)];
-    double l0 = x.dot(b.cross(c)), l1 = x.dot(c.cross(a)), l2 = x.dot(a.cross(b));
+    const Eigen::Vector3d l = triple_coords(x, a, b, c);
+    const double l0 = l(0), l1 = l(1), l2 = l(2);
     // Scale-free tolerance for points on edges.
     double tol = -1e-14 * (std::abs(l0) + std::abs(l1) + std::abs(l2));
     int k = -1;

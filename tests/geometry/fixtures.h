@@ -126,4 +126,40 @@ inline void tet_grid(int n, double jitter, unsigned seed, Eigen::MatrixXd& V, Ei
         }
 }
 
+// A closed tube (a thin limb) with a non-Delaunay triangulation, as real meshes have: `rings`
+// rings of k vertices, radius r, spaced dz along z from z = 0, ring i turned by i * 0.3 of
+// the angular step and each quad split along its LONG diagonal (the two angles opposite it
+// sum to about 280 degrees: negative cotan weights on every such edge); each end closed by
+// a fan to a pole vertex on the axis at distance h beyond the end ring. Outward oriented.
+// Vertices: rings * k + 2 (the bottom pole is rings * k, the top one rings * k + 1). The
+// geodesic distance from the bottom pole to a tube vertex at height z is
+// sqrt(r^2 + h^2) + z.
+inline void sheared_tube(int rings, int k, double r, double dz, double h, Eigen::MatrixXd& V,
+                         Eigen::MatrixXi& F) {
+  const int n = rings * k;
+  V.resize(n + 2, 3);
+  const double step = 2 * M_PI / k;
+  for (int i = 0; i < rings; ++i)
+    for (int j = 0; j < k; ++j) {
+      const double a = (j + 0.3 * i) * step;
+      V.row(i * k + j) << r * std::cos(a), r * std::sin(a), i * dz;
+    }
+  V.row(n) << 0, 0, -h;
+  V.row(n + 1) << 0, 0, (rings - 1) * dz + h;
+  std::vector<std::array<int, 3>> f;
+  for (int i = 0; i + 1 < rings; ++i)
+    for (int j = 0; j < k; ++j) {
+      const int a0 = i * k + j, a1 = i * k + (j + 1) % k, b0 = (i + 1) * k + j, b1 = (i + 1) * k + (j + 1) % k;
+      // Ring i+1 is turned forward, so a0-b1 is the long diagonal of quad a0 a1 b1 b0.
+      f.push_back({a0, a1, b1});
+      f.push_back({a0, b1, b0});
+    }
+  for (int j = 0; j < k; ++j) {
+    f.push_back({n, (j + 1) % k, j});
+    f.push_back({n + 1, (rings - 1) * k + j, (rings - 1) * k + (j + 1) % k});
+  }
+  F.resize(int(f.size()), 3);
+  for (size_t t = 0; t < f.size(); ++t) F.row(int(t)) << f[t][0], f[t][1], f[t][2];
+}
+
 }  // namespace shapemap::testing

@@ -19,6 +19,10 @@ Eigen::SparseMatrix<double> cotan_laplacian(const Eigen::MatrixXd& V, const Eige
 // Tets: w_ij = (1/6) sum over tets containing edge ij of l_kl * cot(theta_kl), where kl
 // is the opposite edge, l_kl its length and theta_kl the dihedral angle at kl.
 // V n×3, T m×4 -> n×n. Also the weights used by the isovolumetric L_V (Eq. 3c).
+// L without its negative edge weights (off-diagonal entries > 0, i.e. cotan weights w < 0:
+// edges of a non-Delaunay triangulation), the diagonal made minus the sum of what is left:
+// an M-matrix (discrete maximum principle) whose rows still sum to zero.
+Eigen::SparseMatrix<double> drop_negative_weights(const Eigen::SparseMatrix<double>& L);
 Eigen::SparseMatrix<double> tet_cotan_laplacian(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T);
 
 // Per-tet cotangent weights, m×6, for the edges (0,1),(0,2),(0,3),(1,2),(1,3),(2,3),

@@ -31,15 +31,25 @@ struct ConformalFlattening {
   int pole_face = -1;
   double centroid_norm = 0;     // |area centroid| on the sphere after centering
   int flipped_faces = 0;        // faces with negative orientation on the sphere
+  // The dipole map folded with the cotangent weights (non-Delaunay meshes with thin parts,
+  // e.g. the camel poses' legs) and was recomputed without the negative weights, which
+  // folded less (docs/methods.md, "Non-Delaunay meshes"); cotan_flipped_faces: the folds of
+  // the first try.
+  bool dropped_negative_weights = false;
+  int cotan_flipped_faces = 0;
 };
 
-// V: n×3, F: m×3 closed, connected, genus 0, consistently oriented.
+// V: n×3, F: m×3 closed, connected, genus 0, consistently oriented. The dipole map with the
+// cotangent Laplacian; if it has flipped faces on the sphere, again with the negative
+// weights dropped (drop_negative_weights), and the one with fewer flipped faces is kept.
 // Throws shapemap::Error if the linear solve fails.
 ConformalFlattening conformal_flattening(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F,
                                          const ConformalFlatteningOptions& options = {});
 
-// The planar dipole map alone (n×2), pole face pole_face.
-Eigen::MatrixXd dipole_flattening(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, int pole_face);
+// The planar dipole map alone (n×2), pole face pole_face; drop_negative: with the cotangent
+// Laplacian's negative weights dropped.
+Eigen::MatrixXd dipole_flattening(const Eigen::MatrixXd& V, const Eigen::MatrixXi& F, int pole_face,
+                                  bool drop_negative = false);
 
 // Angle distortion of a map of the mesh (V,F) to X (n×2 or n×3, same faces): per face,
 // the mean over its three corners of |angle in X − angle in V| (radians). Faces listed
