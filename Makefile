@@ -8,8 +8,12 @@ CMAKE_FLAGS ?=
 deps:
 	@bash scripts/install-deps
 
+# Ninja when installed (install-deps installs it, so it is decided after deps ran): it
+# compiles the tool's own sources while the libraries are still compiling, where make's
+# per-target order leaves a core idle; CMAKE_GENERATOR in the environment wins.
 $(BUILD)/CMakeCache.txt: | deps
-	cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release $(CMAKE_FLAGS)
+	cmake -S . -B $(BUILD) $$([ -z "$$CMAKE_GENERATOR" ] && command -v ninja >/dev/null && echo "-G Ninja") \
+	  -DCMAKE_BUILD_TYPE=Release $(CMAKE_FLAGS)
 
 # Everything: the tool, the tests, the benchmarks.
 build: deps $(BUILD)/CMakeCache.txt

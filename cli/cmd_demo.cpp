@@ -1,7 +1,7 @@
 // shapemap demo: the main job on built-in generated shapes. It scripts the tool's own
 // subcommands in-process (exactly what a user would type), so the demo exercises the
 // real command-line contract: generate a creature pair with ground truth -> BIM ->
-// elastic refinement -> tetrahedralize -> automatic symmetric volume map -> ball
+// elastic refinement -> tetrahedralize -> symmetric volume map from the elastic maps -> ball
 // parameterization -> registration through the ball -> symmetric volume map initialized by
 // that registration; evaluates each map against the ground truth, prints a summary table
 // and writes DIR/index.html: the summary, then each stage's interactive report (its 3D views
@@ -79,8 +79,11 @@ std::vector<Step> demo_steps(const DemoArgs& a, const std::string& D) {
       {"elastic eval", "elastic", "geodesic error vs ground truth",
        {"evaluate", "surface", P + "/A.obj", P + "/B.obj", D + "/elastic/map_AB.txt", "--truth",
         P + "/truth_AB.txt", "-o", D + "/elastic/evaluation.json"}},
-      {"volume map", "volume", "automatic symmetric volume map (BIM + elastic init)",
-       {"volume-map", P + "/A.vtk", P + "/B.vtk", "-o", D + "/volume", "--init", "auto"}},
+      // The elastic step's maps (on the generated surfaces) start the volume map: the same
+      // BIM + elastic chain as --init auto, which would compute it again on the boundaries.
+      {"volume map", "volume", "symmetric volume map initialized by the elastic surface maps",
+       {"volume-map", P + "/A.vtk", P + "/B.vtk", "-o", D + "/volume", "--init", "surface-map", "--surface-map",
+        D + "/elastic/map_AB.txt", D + "/elastic/map_BA.txt", "--surface-map-meshes", P + "/A.obj", P + "/B.obj"}},
       {"volume eval", "volume", "volume map A->B vs the ground-truth deformation",
        {"evaluate", "volume", P + "/A.vtk", P + "/B.vtk", D + "/volume/map_AB.txt", "--map-ba",
         D + "/volume/map_BA.txt", "--truth", P + "/truth_vol_AB.txt", "-o", D + "/volume/evaluation.json"}},

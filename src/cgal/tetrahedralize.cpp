@@ -1,6 +1,8 @@
 // Tetrahedralization of a closed surface (CGAL Mesh_3, polyhedral domain) and the
-// polyhedral surface remesher used by the generated pairs. One of the two translation
-// units of shapemap that include CGAL (the other: implicit_mesher.cpp).
+// polyhedral surface remesher used by the generated pairs. The Mesh_3 unit for polyhedral
+// domains (implicit_mesher.cpp: implicit ones); tetrahedralize() itself, which first looks
+// for self-intersections (CGAL PMP), is in self_intersections.cpp, so that the two long
+// CGAL instantiations compile side by side.
 #include "shapemap/volume/tetrahedralize.h"
 #include "shapemap/geometry/tet_volume.h"
 #include "internal.h"
@@ -12,14 +14,12 @@
 #include <CGAL/Mesh_criteria_3.h>
 #include <CGAL/Mesh_error_code.h>
 #include <CGAL/Mesh_triangulation_3.h>
-#include <CGAL/Polygon_mesh_processing/repair_self_intersections.h>
-#include <CGAL/Polygon_mesh_processing/self_intersections.h>
 #include <CGAL/Polyhedral_mesh_domain_with_features_3.h>
 #include <CGAL/Random.h>
-#include <CGAL/Surface_mesh.h>
 #include <CGAL/make_mesh_3.h>
 #include <CGAL/refine_mesh_3.h>
 #include "c3t3_surface.h"  // after the CGAL headers it instantiates
+#include "surface_mesh.h"
 
 #include <algorithm>
 #include <atomic>
@@ -39,7 +39,8 @@ namespace {
 
 using K = CGAL::Exact_predicates_inexact_constructions_kernel;
 using Point = K::Point_3;
-using SurfaceMesh = CGAL::Surface_mesh<Point>;
+using cgal_internal::SurfaceMesh;
+using cgal_internal::to_surface_mesh;
 using Domain = CGAL::Polyhedral_mesh_domain_with_features_3<K, SurfaceMesh>;
 using Tr = CGAL::Mesh_triangulation_3<Domain, CGAL::Default, CGAL::Sequential_tag>::type;
 using C3t3 = CGAL::Mesh_complex_3_in_triangulation_3<Tr, Domain::Corner_index, Domain::Curve_index>;
@@ -51,15 +52,6 @@ SHAPEMAP_NO_C3T3_DUMP(shapemap::C3t3)
 namespace shapemap {
 namespace {
 
-SurfaceMesh to_surface_mesh(const TriMesh& m, const std::string& name) {
-  SurfaceMesh sm;
-  std::vector<SurfaceMesh::Vertex_index> vi(m.num_vertices());
-  for (int i = 0; i < m.num_vertices(); ++i) vi[i] = sm.add_vertex(Point(m.V(i, 0), m.V(i, 1), m.V(i, 2)));
-  for (int f = 0; f < m.num_faces(); ++f)
-    if (sm.add_face(vi[m.F(f, 0)], vi[m.F(f, 1)], vi[m.F(f, 2)]) == SurfaceMesh::null_face())
-      throw InputError(name + ": face " + std::to_string(f) + " breaks manifoldness");
-  return sm;
-}
 
 // Initial surface points for Mesh_3: input vertices taken at a stride over the index
 // range, keeping only those at least min_separation from the ones already kept (close
@@ -99,18 +91,6 @@ void insert_initial_points(C3t3& c3t3, const Domain& domain, const TriMesh& m, i
 
 Eigen::Vector3d to_eigen(const Point& p) { return {p.x(), p.y(), p.z()}; }
 
-// An output iterator that only counts what is written to it (the self-intersecting pairs).
-struct PairCounter {
-  int* n;
-  PairCounter& operator*() { return *this; }
-  PairCounter& operator++() { return *this; }
-  PairCounter operator++(int) { return *this; }
-  template <class T>
-  PairCounter& operator=(const T&) {
-    ++*n;
-    return *this;
-  }
-};
 
 // Sets `stop` after `seconds` unless destroyed first (Mesh_3 polls it between steps).
 class Watchdog {
@@ -360,82 +340,8 @@ TetMesh keep_odt_unless_defective(TetMesh smoothed,
   return smoothed;
 }
 
-int self_intersecting_face_pairs(const TriMesh& surface) {
-  cgal_internal::require_closed_manifold(surface, "surface");
-  int n = 0;
-  CGAL::Polygon_mesh_processing::self_intersections(to_surface_mesh(surface, "surface"), PairCounter{&n});
-  return n;
-}
-
-// One meshing of `surface` (crossings: its count of crossing face pairs, for info).
-TetMesh tetrahedralize_once(const TriMesh& surface, const TetrahedralizeOptions& opt,
-                            const ProgressCallback& progress, TetrahedralizeInfo* info,
-                            int crossings);
-
-namespace {
-// The surface with its self-intersections removed by CGAL (Polygon Mesh Processing,
-// experimental::remove_self_intersections: crossing faces and a small neighbourhood are
-// removed and the holes filled, smoothly). False when CGAL cannot, or the result is no
-// longer a closed manifold surface without crossings.
-bool without_self_intersections(const TriMesh& surface, TriMesh& out) {
-  SurfaceMesh sm = to_surface_mesh(surface, "surface");
-  namespace P = CGAL::parameters;
-  bool ok = false;
-  try {
-    ok = CGAL::Polygon_mesh_processing::experimental::remove_self_intersections(
-        sm, P::preserve_genus(true));
-  } catch (const CGAL::Failure_exception&) {
-    return false;
-  }
-  if (!ok) return false;
-  sm.collect_garbage();
-  std::unordered_map<SurfaceMesh::Vertex_index, int> id;
-  out.V.resize(sm.number_of_vertices(), 3);
-  int k = 0;
-  for (auto v : sm.vertices()) {
-    const auto& p = sm.point(v);
-    out.V.row(k) << p.x(), p.y(), p.z();
-    id[v] = k++;
-  }
-  out.F.resize(sm.number_of_faces(), 3);
-  k = 0;
-  for (auto f : sm.faces()) {
-    int c = 0;
-    for (auto v : CGAL::vertices_around_face(sm.halfedge(f), sm)) {
-      if (c == 3) return false;
-      out.F(k, c++) = id[v];
-    }
-    if (c != 3) return false;
-    ++k;
-  }
-  const cgal_internal::SurfaceTopology t = cgal_internal::surface_topology(out);
-  if (!(t.closed && t.edge_manifold && t.vertex_manifold && t.oriented && t.components == 1)) return false;
-  return !CGAL::Polygon_mesh_processing::does_self_intersect(sm);
-}
-}  // namespace
-
-TetMesh tetrahedralize(const TriMesh& surface, const TetrahedralizeOptions& opt,
-                       const ProgressCallback& progress, TetrahedralizeInfo* info) {
-  const int crossings = self_intersecting_face_pairs(surface);
-  if (crossings == 0) return tetrahedralize_once(surface, opt, progress, info, 0);
-  try {
-    return tetrahedralize_once(surface, opt, progress, info, crossings);
-  } catch (const InputError& e) {
-    // Mesh_3 ran away on a crossing surface (tosca-cat-00.off: 86 crossing pairs, over 60k
-    // vertices): the crossings removed by CGAL, then meshed again (reported in info).
-    TriMesh fixed;
-    if (!without_self_intersections(surface, fixed))
-      throw InputError(std::string(e.what()) + "; it crosses itself (" + std::to_string(crossings) +
-                       " pairs of faces), which CGAL could not repair");
-    TetMesh out = tetrahedralize_once(fixed, opt, progress, info, 0);
-    if (info) {
-      info->self_intersecting_pairs = crossings;
-      info->self_intersections_removed = true;
-    }
-    return out;
-  }
-}
-
+// One meshing of `surface` (crossings: its count of crossing face pairs, for info); called by
+// tetrahedralize() (self_intersections.cpp).
 TetMesh tetrahedralize_once(const TriMesh& surface, const TetrahedralizeOptions& opt,
                             const ProgressCallback& progress, TetrahedralizeInfo* info,
                             int crossings) {

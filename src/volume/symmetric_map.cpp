@@ -6,6 +6,7 @@
 #include "shapemap/optim/anderson.h"
 #include "shapemap/optim/lbfgs.h"
 #include "shapemap/optim/newton.h"
+#include "shapemap/timing.h"
 #include <Eigen/Dense>
 #include <algorithm>
 #include <chrono>
@@ -17,11 +18,6 @@
 namespace shapemap {
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
 
 // Boundary face f of M (surface numbering of `bd`) with barycentric b -> (tet, 4 coords).
 void face_to_tet(const TetMesh& M, const TetBoundary& bd, int f, const Eigen::Vector3d& b,

@@ -1,7 +1,7 @@
 // `shapemap demo` end to end on a small generated pair: the whole chain (generate ->
-// BIM -> elastic -> automatic volume map -> ball -> registration -> volume map from the
-// registration) must succeed, write every report with its pictures, and reach quality
-// that would catch a regression in any stage it chains.
+// BIM -> elastic -> volume map from the elastic maps -> ball -> registration -> volume
+// map from the registration) must succeed, write every report with its pictures, and
+// reach quality that would catch a regression in any stage it chains.
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <cstdlib>
@@ -47,7 +47,7 @@ TEST(DemoCli, WholeChainOnASmallPair) {
   EXPECT_GE(el_within, 0.75);
   EXPECT_LE(double(el["geodesic_error"]["mean"]), 1.1 * double(bim["geodesic_error"]["mean"]) + 0.005);
 
-  // The automatic volume map: no inverted tets, volume kept, close to the truth.
+  // The volume map from the elastic maps: no inverted tets, volume kept, close to the truth.
   const auto vol = load(dir / "volume/evaluation.json")["metrics"];
   EXPECT_LE(int(vol["n_inv"]), 2);
   EXPECT_GE(double(vol["det_J_mean"]), 0.95);
