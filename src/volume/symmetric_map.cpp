@@ -673,12 +673,12 @@ void inverted_neighbourhood(const ArapEnergy& arap, const Eigen::MatrixXd& X, in
 // Insets toward the target's interior of the landing (fractions of the way from the closest
 // point on dM_j to the inner corner of the target tet behind it).
 constexpr double kLandInset[] = {0.0, 0.02, 0.05, 0.1, 0.2, 0.4};
-constexpr double kPullInset = 0.05;
+constexpr double kPullInset = 0.05;  // pull_inside: anchors 5% of the way to their tet's centre
 // A landing move keeps a tet if its det J stays above this (or above its det J before the
 // move, when that is smaller): det J > 0 alone let the projection leave tets with four
 // boundary corners at det J ~ 1e-15 (cat -> lion A -> B: 23 below 1e-6), flat in effect,
 // and their barrier gradients (~1e13) stalled every later Newton step.
-constexpr double kLandMinDet = 1e-3;  // pull_inside: anchors 5% of the way to their tet's centre
+constexpr double kLandMinDet = 1e-3;
 
 // A boundary vertex v whose closest point p flattens some of its tets (typically slivers with
 // four boundary corners, the other three already on one plane of dM_j): put v at p and, per
