@@ -258,6 +258,10 @@ CLI::App* add_volume_map_command(CLI::App& parent, VolumeMapArgs& a) {
                     "each proposal kept only if it lowers Eq. 25 (ours; 0 = off)")
       ->check(CLI::Range(0, 20))
       ->capture_default_str();
+  app->add_option("--eliminate-p", a.opt.eliminate_p,
+                  "Newton X-steps with P eliminated: each trial X re-solves its P-step and the Hessian "
+                  "takes P's response (ours; 0 = the paper's alternation of fixed-P steps)")
+      ->capture_default_str();
   app->add_flag("--no-land-on-target", [&a](std::int64_t) { a.opt.land_on_target = false; },
                   "Skip the final stage that puts X's boundary on the target's boundary and relaxes the "
                   "interior (ours; without it the map files snap images left outside into the target)");

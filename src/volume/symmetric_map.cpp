@@ -201,6 +201,61 @@ BarycentricMap surface_initial_map(const TetMesh& A, const TetMesh& B, const Tri
 // ---------------------------------------------------------------------------------
 // The X-step objective of one direction
 
+namespace {
+// Per tet: bit q set when the face opposite corner q lies on the boundary.
+std::vector<unsigned char> boundary_face_bits(const TetMesh& M, const TetBoundary& bd) {
+  std::vector<unsigned char> bits(M.num_tets(), 0);
+  for (int f = 0; f < bd.surface.num_faces(); ++f) {
+    const int t = bd.face_tet(f);
+    for (int q = 0; q < 4; ++q) {
+      bool in_face = false;
+      for (int c = 0; c < 3; ++c) in_face |= bd.to_volume(bd.surface.F(f, c)) == M.T(t, q);
+      if (!in_face) bits[t] |= static_cast<unsigned char>(1u << q);
+    }
+  }
+  return bits;
+}
+
+// An orthonormal basis (columns) of the directions in which a point with barycentric
+// coordinates `bary` in tet t of M may move and stay in M to first order: all three, unless
+// it lies on faces of dM (a zero coordinate opposite a boundary face; across an interior
+// face it moves on into the neighbouring tet). No columns at a corner of dM.
+Eigen::MatrixXd free_directions(const TetMesh& M, const std::vector<unsigned char>& face_bits, int t,
+                                const Eigen::RowVector4d& bary) {
+  constexpr double eps = 1e-9;
+  Eigen::Vector3d normals[4];
+  int active = 0;
+  for (int q = 0; q < 4; ++q)
+    if (bary(q) <= eps && (face_bits[t] >> q & 1)) {
+      const Eigen::Vector3d p0 = M.V.row(M.T(t, (q + 1) % 4)), p1 = M.V.row(M.T(t, (q + 2) % 4)),
+                            p2 = M.V.row(M.T(t, (q + 3) % 4));
+      normals[active++] = (p1 - p0).cross(p2 - p0).normalized();
+    }
+  if (active == 0) return Eigen::Matrix3d::Identity();
+  if (active == 1) {
+    const Eigen::Vector3d& n = normals[0];
+    const Eigen::Vector3d a = std::abs(n.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+    const Eigen::Vector3d t1 = n.cross(a).normalized();
+    Eigen::MatrixXd T(3, 2);
+    T << t1, n.cross(t1);
+    return T;
+  }
+  const Eigen::Vector3d e = normals[0].cross(normals[1]);
+  if (active == 2 && e.norm() > 1e-12) return e.normalized();
+  return Eigen::MatrixXd(3, 0);
+}
+
+// The Jacobian of the piecewise-linear map X on tet t of the rest mesh M.
+Eigen::Matrix3d tet_jacobian(const TetMesh& M, const Eigen::MatrixXd& X, int t) {
+  Eigen::Matrix3d Dv, Dx;
+  for (int c = 0; c < 3; ++c) {
+    Dv.col(c) = (M.V.row(M.T(t, c + 1)) - M.V.row(M.T(t, 0))).transpose();
+    Dx.col(c) = (X.row(M.T(t, c + 1)) - X.row(M.T(t, 0))).transpose();
+  }
+  return Dx * Dv.inverse();
+}
+}  // namespace
+
 DirectionalEnergy::DirectionalEnergy(const TetMesh& Mi, const TetMesh& Mj) : Mi_(Mi), Mj_(Mj) {
   arap_.build(Mi_.V, Mi_.T);
   bi_ = boundary_surface(Mi_);
@@ -215,6 +270,8 @@ DirectionalEnergy::DirectionalEnergy(const TetMesh& Mi, const TetMesh& Mj) : Mi_
   sj_ = aj_.sum();
   Fi_vol_ = faces_in_volume_numbering(bi_);
   target_boundary_.build(bj_.surface.V, bj_.surface.F);
+  bi_faces_ = boundary_face_bits(Mi_, bi_);
+  bj_faces_ = boundary_face_bits(Mj_, bj_);
 }
 
 void DirectionalEnergy::set_weights(double alpha, double beta, double gamma, double backward_scale) {
@@ -225,7 +282,15 @@ void DirectionalEnergy::set_weights(double alpha, double beta, double gamma, dou
 }
 
 void DirectionalEnergy::set_maps(const BarycentricMap& P_ij, const BarycentricMap& P_ji) {
+  set_forward_map(P_ij);
+  set_backward_map(P_ji);
+}
+
+void DirectionalEnergy::set_forward_map(const BarycentricMap& P_ij) {
   PijVj_ = map_positions(P_ij, Mj_.V, Mj_.T);
+}
+
+void DirectionalEnergy::set_backward_map(const BarycentricMap& P_ji) {
   Pji_ = P_ji;
   const int ni = Mi_.num_vertices(), nj = P_ji.size();
   Pji_verts_.resize(nj, 4);
@@ -325,6 +390,67 @@ double DirectionalEnergy::evaluate(const Eigen::MatrixXd& X, Eigen::MatrixXd* gr
             t.barrier + t.anchors;
   if (terms) *terms = t;
   return t.total;
+}
+
+double DirectionalEnergy::weighted_map_terms(const Eigen::MatrixXd& X) const {
+  const int ni = Mi_.num_vertices(), nj = Pji_.size();
+  er_.resize(nj);
+  eq_.resize(ni);
+#pragma omp parallel
+  {
+#pragma omp for schedule(static)
+    for (int w = 0; w < nj; ++w) {
+      Eigen::RowVector3d p = -Mj_.V.row(w);
+      for (int q = 0; q < 4; ++q) p += Pji_.bary(w, q) * X.row(Pji_verts_(w, q));
+      er_(w) = Cj_(w) * p.squaredNorm();
+    }
+#pragma omp for schedule(static)
+    for (int v = 0; v < ni; ++v) eq_(v) = Ci_(v) * (X.row(v) - PijVj_.row(v)).squaredNorm();
+  }
+  double sum_r = 0, sum_q = 0;  // serial sums: independent of the thread count
+  for (int w = 0; w < nj; ++w) sum_r += er_(w);
+  for (int v = 0; v < ni; ++v) sum_q += eq_(v);
+  return (1.0 - alpha_) * sum_r / (cj_ * cj_) + beta_ * sum_q / (ci_ * cj_);
+}
+
+void DirectionalEnergy::add_eliminated_p_hessian(const Eigen::MatrixXd& X, const BarycentricMap& P_ij,
+                                                 const Eigen::MatrixXd& X_ji, BlockHessian& H,
+                                                 const std::vector<char>* held_ij,
+                                                 const std::vector<char>* held_ji) const {
+  const int ni = Mi_.num_vertices(), nj = Mj_.num_vertices();
+  if (beta_ == 0 || alpha_ == 1 || P_ij.size() != ni || Pji_.size() != nj) return;
+  // E_Q of row v of P_ij (y in M_j) with the other direction's E_R: per vertex of M_i,
+  // b|X_v - y|^2 + a|A y + c - V_i(v)|^2, A the Jacobian of X_ji on y's tet. Eliminating y
+  // leaves 2b (I - b T (b I + a T^T A^T A T)^-1 T^T); add_hessian() has 2b I.
+  for (int v = 0; v < ni; ++v) {
+    if (H.free_index(v) < 0 || (held_ij && (*held_ij)[v])) continue;
+    const Eigen::MatrixXd T = free_directions(Mj_, bj_faces_, P_ij.elem(v), P_ij.bary.row(v));
+    if (T.cols() == 0) continue;  // at a corner of dM_j: y held, the fixed-P Hessian is exact
+    const Eigen::Matrix3d A = tet_jacobian(Mj_, X_ji, P_ij.elem(v));
+    const double b = beta_ * Ci_(v) / (ci_ * cj_), a = (1.0 - alpha_) * Ci_(v) / (ci_ * ci_);
+    const Eigen::MatrixXd AT = A * T;
+    const Eigen::MatrixXd M = b * Eigen::MatrixXd::Identity(T.cols(), T.cols()) + a * AT.transpose() * AT;
+    H.add_block(v, v, -2.0 * b * b * (T * M.ldlt().solve(T.transpose())));
+  }
+  // E_R of this direction with row w of P_ji (y in M_i, in tet s, coordinates l) and E_Q of
+  // the other: a|X(y) - V_j(w)|^2 + b|X_ji(w) - y|^2. Eliminating y (Gauss-Newton: X(y) =
+  // sum_k l_k X_k + A (y - y0), A the Jacobian of X on s) turns add_hessian()'s
+  // 2a (l l^T ⊗ I) into 2a (l l^T ⊗ (I - a A T (a T^T A^T A T + b I)^-1 T^T A^T)).
+  Eigen::Matrix<double, 12, 12> He;
+  for (int w = 0; w < nj; ++w) {
+    if (held_ji && (*held_ji)[w]) continue;
+    const int t = Pji_.elem(w);
+    const Eigen::MatrixXd T = free_directions(Mi_, bi_faces_, t, Pji_.bary.row(w));
+    if (T.cols() == 0) continue;
+    const Eigen::Matrix3d A = tet_jacobian(Mi_, X, t);
+    const double a = (1.0 - alpha_) * Cj_(w) / (cj_ * cj_), b = beta_ * Cj_(w) / (cj_ * ci_);
+    const Eigen::MatrixXd AT = A * T;
+    const Eigen::MatrixXd M = b * Eigen::MatrixXd::Identity(T.cols(), T.cols()) + a * AT.transpose() * AT;
+    const Eigen::Matrix3d D = -2.0 * a * a * (AT * M.ldlt().solve(AT.transpose()));
+    for (int p = 0; p < 4; ++p)
+      for (int q = 0; q < 4; ++q) He.block<3, 3>(3 * p, 3 * q) = (Pji_.bary(w, p) * Pji_.bary(w, q)) * D;
+    H.add_element(t, He);
+  }
 }
 
 void DirectionalEnergy::set_anchors(const std::vector<int>& rows, const Eigen::MatrixXd& A, double k) {
@@ -594,8 +720,11 @@ LbfgsResult minimize_rows(const std::function<double(const Eigen::MatrixXd&, Eig
 
 // Projected Newton over the free vertices of `pn`'s pattern (others fixed) on the X-step
 // objective of one direction; the same result fields as minimize_rows.
-LbfgsResult newton_rows(const DirectionalEnergy& e, ProjectedNewton& pn, Eigen::MatrixXd& X,
-                        const NewtonOptions& o, double* profile = nullptr) {
+using RowsValue = std::function<double(const Eigen::MatrixXd&, Eigen::MatrixXd*)>;
+using RowsHessian = std::function<void(const Eigen::MatrixXd&, BlockHessian&)>;
+
+LbfgsResult newton_rows(const RowsValue& value, const RowsHessian& hessian, ProjectedNewton& pn,
+                        Eigen::MatrixXd& X, const NewtonOptions& o, double* profile = nullptr) {
   const std::vector<int>& rows = pn.hessian().free_vertices();
   const int k = int(rows.size());
   Eigen::MatrixXd Xf = X, G;
@@ -604,14 +733,14 @@ LbfgsResult newton_rows(const DirectionalEnergy& e, ProjectedNewton& pn, Eigen::
   };
   NewtonValue f = [&](const Eigen::VectorXd& z, Eigen::VectorXd* g) {
     scatter(z);
-    const double v = e.evaluate(Xf, g ? &G : nullptr);
+    const double v = value(Xf, g ? &G : nullptr);
     if (g)
       for (int q = 0; q < k; ++q) g->segment<3>(3 * q) = G.row(rows[q]).transpose();
     return v;
   };
   NewtonHessian h = [&](const Eigen::VectorXd& z, BlockHessian& H) {
     scatter(z);
-    e.add_hessian(Xf, H);
+    hessian(Xf, H);
   };
   Eigen::VectorXd x(3 * k);
   for (int q = 0; q < k; ++q) x.segment<3>(3 * q) = X.row(rows[q]).transpose();
@@ -630,6 +759,13 @@ LbfgsResult newton_rows(const DirectionalEnergy& e, ProjectedNewton& pn, Eigen::
   res.grad_norm = nr.grad_norm;
   res.converged = nr.stop == "gradient" || nr.stop == "decrease";
   return res;
+}
+
+LbfgsResult newton_rows(const DirectionalEnergy& e, ProjectedNewton& pn, Eigen::MatrixXd& X,
+                        const NewtonOptions& o, double* profile = nullptr) {
+  return newton_rows([&](const Eigen::MatrixXd& Y, Eigen::MatrixXd* g) { return e.evaluate(Y, g); },
+                     [&](const Eigen::MatrixXd& Y, BlockHessian& H) { e.add_hessian(Y, H); }, pn, X, o,
+                     profile);
 }
 
 int count_inverted(const ArapEnergy& arap, const Eigen::MatrixXd& X) {
@@ -1188,8 +1324,24 @@ class SymmetricMapSolver {
       no.grad_tol = 0;
       // (Running the two directions on one thread each was 1.3x faster but not
       // reproducible run to run: it stays serial, parallel inside.)
-      r1 = newton_rows(e12_, *n12, X12_, no, st.newton_seconds);
-      r2 = newton_rows(e21_, *n21, X21_, no, st.newton_seconds);
+      if (opt_.eliminate_p) {
+        // Both directions start from the same X's and P's, as the fixed-P steps do, so that
+        // swapping the inputs swaps the maps; then the P-steps at the new X's.
+        Eigen::MatrixXd X12 = X12_;
+        const BarycentricMap P12 = P12_, P21 = P21_;
+        r1 = eliminated_p_x_step(0, fix_boundary, *n12, no, st);
+        X12_.swap(X12);  // X12_ back at the start, X12 the new one
+        P12_ = P12;
+        P21_ = P21;
+        r2 = eliminated_p_x_step(1, fix_boundary, *n21, no, st);
+        X12_ = std::move(X12);
+        P12_ = P12;  // the same hints for the P-steps whichever direction went first
+        P21_ = P21;
+        p_steps(fix_boundary, st);
+      } else {
+        r1 = newton_rows(e12_, *n12, X12_, no, st.newton_seconds);
+        r2 = newton_rows(e21_, *n21, X21_, no, st.newton_seconds);
+      }
     } else {
       auto f12 = [&](const Eigen::MatrixXd& X, Eigen::MatrixXd* g) { return e12_.evaluate(X, g); };
       auto f21 = [&](const Eigen::MatrixXd& X, Eigen::MatrixXd* g) { return e21_.evaluate(X, g); };
@@ -1200,7 +1352,56 @@ class SymmetricMapSolver {
     st.lbfgs_iterations += r1.iterations + r2.iterations;
     st.evaluations += r1.evaluations + r2.evaluations;
     grad_norm = std::sqrt(r1.grad_norm * r1.grad_norm + r2.grad_norm * r2.grad_norm);
-    return r1.f + r2.f;
+    // With P eliminated each f also holds the other direction's E_R at the new P: sum
+    // Eq. 25 itself.
+    return opt_.eliminate_p && opt_.solver == XStepSolver::Newton ? energy() : r1.f + r2.f;
+  }
+
+  // Ours (issue 19, SymmetricVolumeMapOptions::eliminate_p): the X-step of direction
+  // `dir` on f(X_ij) = min over P_ij of Eq. 25 with X_ji and P_ji held. Each value re-runs
+  // the P-step of P_ij at the trial X_ij (its objective is every term of Eq. 25 with P_ij
+  // in it), so f is Eq. 25 of the E_Q and the other direction's E_R at their minimum; its
+  // gradient is the fixed-P one and its Hessian per vertex the Schur complement
+  // (DirectionalEnergy::add_eliminated_p_hessian). P_ij ends at its minimizer for the
+  // final X_ij, and both energies take it.
+  LbfgsResult eliminated_p_x_step(int dir, bool fix_boundary, ProjectedNewton& pn, const NewtonOptions& no,
+                                  SymmetricMapStage& st) {
+    DirectionalEnergy& e = dir == 0 ? e12_ : e21_;
+    DirectionalEnergy& other = dir == 0 ? e21_ : e12_;
+    PStep& pstep = dir == 0 ? p12_ : p21_;
+    Eigen::MatrixXd& X = dir == 0 ? X12_ : X21_;
+    const Eigen::MatrixXd& Xji = dir == 0 ? X21_ : X12_;
+    BarycentricMap& P = dir == 0 ? P12_ : P21_;
+    const BarycentricMap& P0 = dir == 0 ? P12_0_ : P21_0_;
+    const std::vector<char>* keep = fix_boundary ? (dir == 0 ? &bd1_ : &bd2_) : nullptr;
+    PStep& pstep_ji = dir == 0 ? p21_ : p12_;
+    BarycentricMap& Pji = dir == 0 ? P21_ : P12_;
+    const BarycentricMap& Pji0 = dir == 0 ? P21_0_ : P12_0_;
+    const std::vector<char>* keep_ji = fix_boundary ? (dir == 0 ? &bd2_ : &bd1_) : nullptr;
+    Eigen::MatrixXd P_at;  // the X that P holds the minimizer for
+    auto update_p = [&](const Eigen::MatrixXd& Y) {
+      if (P_at.rows() == Y.rows() && P_at == Y) return;
+      const auto tp = Clock::now();
+      pstep.run(Y, Xji, opt_.alpha, beta_, opt_.boundary_to_boundary, keep, P0, P);
+      pstep_ji.run(Xji, Y, opt_.alpha, beta_, opt_.boundary_to_boundary, keep_ji, Pji0, Pji);
+      e.set_maps(P, Pji);
+      other.set_maps(Pji, P);
+      P_at = Y;
+      st.time_pstep += seconds_since(tp);
+    };
+    // Eq. 25 up to terms constant in X_ij (the other direction's E_ARAP and E_P)
+    auto value = [&](const Eigen::MatrixXd& Y, Eigen::MatrixXd* g) {
+      update_p(Y);
+      return e.evaluate(Y, g) + other.weighted_map_terms(Xji);
+    };
+    auto hessian = [&](const Eigen::MatrixXd& Y, BlockHessian& H) {
+      update_p(Y);
+      e.add_hessian(Y, H);
+      e.add_eliminated_p_hessian(Y, P, Xji, H, keep, keep_ji);
+    };
+    LbfgsResult r = newton_rows(value, hessian, pn, X, no, st.newton_seconds);
+    update_p(X);
+    return r;
   }
 
   Eigen::VectorXd pack() const {

@@ -233,6 +233,7 @@ nlohmann::json parameters_json(const SymmetricVolumeMapOptions& o, const std::st
           {"land_gamma_rounds", o.land_gamma_rounds}, {"land_gamma_factor", o.land_gamma_factor},
           {"land_barrier_floor", o.land_barrier_floor}, {"land_passes", o.land_passes},
           {"land_pull_rounds", o.land_pull_rounds},
+          {"eliminate_p", o.eliminate_p},
           {"post_repair_penalty", o.post_repair_penalty.floor}, {"xstep_iterations", o.xstep_iterations},
           {"grad_tol", o.grad_tol}, {"decrease_tol", o.decrease_tol},
           {"decrease_rel_tol", o.decrease_rel_tol},

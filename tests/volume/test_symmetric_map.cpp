@@ -10,6 +10,7 @@
 #include <Eigen/Dense>
 #include <gtest/gtest.h>
 #include <cmath>
+#include <functional>
 #include <random>
 #ifdef _OPENMP
 #include <omp.h>
@@ -405,4 +406,165 @@ TEST(SymmetricVolumeMap, LandedXIsTheMapFilesAndItsBoundaryIsOnTheTarget) {
   for (int b = 0; b < bA.surface.num_vertices(); ++b)
     worst = std::max(worst, onB.query(Eigen::Vector3d(e.r.X12.row(bA.to_volume(b)).transpose())).sqdist);
   EXPECT_LT(std::sqrt(worst), 1e-9 * bbox_diagonal(e.B.V));
+}
+
+// The X-step with the P's eliminated (issue 19, DirectionalEnergy::add_eliminated_p_hessian):
+// against a brute-force reference. Each row of P is re-solved at every X by its own 3×3
+// normal equations in its tet (the P-step's objective, E_Q of one direction and E_R of the
+// other), the gradient is the fixed-P one at that P (envelope theorem), and finite
+// differences of it are the Hessian of Eq. 25 with P eliminated.
+namespace {
+
+// argmin_y b|x - y|^2 + a|M(y) - V|^2 over the affine extension of tet t of `rest`, M the
+// piecewise-linear map with vertex images `Xm`; returned as barycentric coordinates in t.
+Eigen::RowVector4d solve_row(const TetMesh& rest, const Eigen::MatrixXd& Xm, int t, const Eigen::Vector3d& x,
+                             const Eigen::Vector3d& V, double b_over_a) {
+  Eigen::Matrix3d Dv, Dx;
+  for (int c = 0; c < 3; ++c) {
+    Dv.col(c) = (rest.V.row(rest.T(t, c + 1)) - rest.V.row(rest.T(t, 0))).transpose();
+    Dx.col(c) = (Xm.row(rest.T(t, c + 1)) - Xm.row(rest.T(t, 0))).transpose();
+  }
+  const Eigen::Matrix3d A = Dx * Dv.inverse();
+  const Eigen::Vector3d y0 = rest.V.row(rest.T(t, 0)).transpose(), c = Xm.row(rest.T(t, 0)).transpose() - A * y0;
+  const Eigen::Vector3d y =
+      (b_over_a * Eigen::Matrix3d::Identity() + A.transpose() * A).ldlt().solve(b_over_a * x + A.transpose() * (V - c));
+  const Eigen::Vector3d l = Dv.inverse() * (y - y0);
+  return Eigen::RowVector4d(1 - l.sum(), l(0), l(1), l(2));
+}
+
+// The tet of `rest` that contains y (brute force), with y's coordinates in it.
+int locate(const TetMesh& rest, const Eigen::Vector3d& y) {
+  for (int t = 0; t < rest.num_tets(); ++t) {
+    Eigen::Matrix3d Dv;
+    for (int c = 0; c < 3; ++c) Dv.col(c) = (rest.V.row(rest.T(t, c + 1)) - rest.V.row(rest.T(t, 0))).transpose();
+    const Eigen::Vector3d l = Dv.inverse() * (y - rest.V.row(rest.T(t, 0)).transpose());
+    if (l.minCoeff() > 1e-6 && l.sum() < 1 - 1e-6) return t;
+  }
+  return -1;
+}
+
+// max |FD of grad - H| / max |FD| over all entries.
+double eliminated_hessian_error(DirectionalEnergy& e, const Eigen::MatrixXd& X,
+                                const std::function<void(const Eigen::MatrixXd&)>& solve_p,
+                                const Eigen::MatrixXd& H) {
+  const double h = 1e-6;
+  double err = 0, scale = 0;
+  for (int i = 0; i < X.size(); ++i) {
+    Eigen::MatrixXd Xp = X, Xm = X, Gp, Gm;
+    Xp(i / 3, i % 3) += h;
+    Xm(i / 3, i % 3) -= h;
+    solve_p(Xp);
+    e.evaluate(Xp, &Gp);
+    solve_p(Xm);
+    e.evaluate(Xm, &Gm);
+    for (int j = 0; j < X.size(); ++j) {
+      const double fd = (Gp(j / 3, j % 3) - Gm(j / 3, j % 3)) / (2 * h);
+      err = std::max(err, std::abs(fd - H(j, i)));
+      scale = std::max(scale, std::abs(fd));
+    }
+  }
+  return err / scale;
+}
+
+Eigen::MatrixXd dense(const BlockHessian& H) {
+  return Eigen::MatrixXd(Eigen::SparseMatrix<double>(H.matrix().selfadjointView<Eigen::Lower>()));
+}
+
+}  // namespace
+
+// P_ij eliminated (E_Q of this direction with E_R of the other), X_ji affine, every row's
+// minimizer inside M_j (a larger box): the Schur complement is exact.
+TEST(EliminatedPHessian, AuxiliaryTermMatchesFiniteDifferences) {
+  const TetMesh A = grid_box(3, 2, 2, 1.0, 0.6, 0.5);
+  TetMesh B = grid_box(3, 3, 3, 3.0, 3.0, 3.0);
+  B.V.array() -= 1.0;
+  DirectionalEnergy e(A, B), other(B, A);
+  // alpha = 0: E_ARAP's projected Hessian (sarap.h) is not exact where tets are compressed
+  const double alpha = 0.0, beta = 20.0;
+  e.set_weights(alpha, beta, 0.0, 0.0);
+  Eigen::Matrix3d L;
+  L << 0.93, 0.11, -0.07, -0.05, 1.08, 0.13, 0.09, -0.12, 0.97;
+  const Eigen::RowVector3d c(0.031, -0.047, 0.019);
+  const Eigen::MatrixXd Xji = (B.V * L.transpose()).rowwise() + c;
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-0.08, 0.08);
+  Eigen::MatrixXd X = apply(A.V);
+  for (int i = 0; i < X.size(); ++i) X(i) += u(rng);
+  const double r = beta * e.volume_i() / ((1 - alpha) * other.volume_i());  // b/a of Eq. 17 vs 18
+  BarycentricMap Pij;
+  Pij.elem.setZero(A.num_vertices());
+  Pij.bary.setConstant(A.num_vertices(), 4, 0.25);
+  const BarycentricMap Pji = random_map(B.num_vertices(), A.num_tets(), rng);
+  e.set_maps(Pij, Pji);
+  auto solve_p = [&](const Eigen::MatrixXd& Y) {
+    for (int v = 0; v < A.num_vertices(); ++v) {
+      const Eigen::RowVector4d l = solve_row(B, Xji, 0, Y.row(v).transpose(), A.V.row(v).transpose(), r);
+      Eigen::Vector3d y = Eigen::Vector3d::Zero();
+      for (int k = 0; k < 4; ++k) y += l(k) * B.V.row(B.T(0, k)).transpose();  // X_ji affine: any tet
+      const int t = locate(B, y);
+      ASSERT_GE(t, 0) << "row " << v << " outside M_j";
+      Pij.elem(v) = t;
+      Pij.bary.row(v) = solve_row(B, Xji, t, Y.row(v).transpose(), A.V.row(v).transpose(), r);
+    }
+    e.set_forward_map(Pij);
+  };
+  solve_p(X);
+  const int n = A.num_vertices();
+  std::vector<int> all(n);
+  for (int v = 0; v < n; ++v) all[v] = v;
+  const std::vector<char> held_ji(B.num_vertices(), 1);
+  BlockHessian H(A.T, n, all), Hfixed(A.T, n, all);
+  e.add_hessian(X, Hfixed);
+  e.add_hessian(X, H);
+  e.add_eliminated_p_hessian(X, Pij, Xji, H, nullptr, &held_ji);
+  const Eigen::MatrixXd D = dense(H);
+  EXPECT_GT((D - dense(Hfixed)).norm(), 0.1 * D.norm() / n);  // the correction is not negligible
+  EXPECT_LT(eliminated_hessian_error(e, X, solve_p, D), 1e-5);
+}
+
+// P_ji eliminated (E_R of this direction with E_Q of the other) at a map and its exact inverse
+// (zero residuals, where the Gauss-Newton elimination is exact); the minimizers lie inside M_i.
+TEST(EliminatedPHessian, ReversibilityTermMatchesFiniteDifferencesAtAConsistentMap) {
+  TetMesh Mi = grid_box(3, 3, 3, 3.0, 3.0, 3.0);
+  Mi.V.array() -= 1.0;
+  const TetMesh Mj = grid_box(3, 2, 2, 1.0, 0.6, 0.5);
+  DirectionalEnergy e(Mi, Mj), other(Mj, Mi);
+  const double alpha = 0.0, beta = 3.0;  // alpha = 0: as above
+  e.set_weights(alpha, beta, 0.0, 0.0);
+  Eigen::Matrix3d L;
+  L << 1.07, -0.09, 0.05, 0.12, 0.94, -0.08, -0.06, 0.1, 1.03;
+  const Eigen::Vector3d c(0.043, 0.027, -0.038);
+  const Eigen::MatrixXd X = (Mi.V * L.transpose()).rowwise() + c.transpose();
+  const Eigen::MatrixXd Xji = ((Mj.V.rowwise() - c.transpose()) * L.inverse().transpose());
+  const double r = beta * other.volume_i() / ((1 - alpha) * e.volume_i());  // b/a of row w
+  std::mt19937 rng(9);
+  const BarycentricMap Pij = random_map(Mi.num_vertices(), Mj.num_tets(), rng);
+  BarycentricMap Pji;
+  Pji.elem.setZero(Mj.num_vertices());
+  Pji.bary.setConstant(Mj.num_vertices(), 4, 0.25);
+  for (int w = 0; w < Mj.num_vertices(); ++w) {
+    Pji.elem(w) = locate(Mi, Xji.row(w).transpose());
+    ASSERT_GE(Pji.elem(w), 0);
+  }
+  auto solve_p = [&](const Eigen::MatrixXd& Y) {
+    for (int w = 0; w < Mj.num_vertices(); ++w)
+      Pji.bary.row(w) = solve_row(Mi, Y, Pji.elem(w), Xji.row(w).transpose(), Mj.V.row(w).transpose(), r);
+    e.set_backward_map(Pji);
+  };
+  e.set_maps(Pij, Pji);
+  solve_p(X);
+  DirectionalEnergy::Terms t;
+  e.evaluate(X, nullptr, &t);
+  EXPECT_LT(t.reversibility, 1e-20);
+  const int n = Mi.num_vertices();
+  std::vector<int> all(n);
+  for (int v = 0; v < n; ++v) all[v] = v;
+  const std::vector<char> held_ij(n, 1);
+  BlockHessian H(Mi.T, n, all), Hfixed(Mi.T, n, all);
+  e.add_hessian(X, Hfixed);
+  e.add_hessian(X, H);
+  e.add_eliminated_p_hessian(X, Pij, Xji, H, &held_ij, nullptr);
+  const Eigen::MatrixXd D = dense(H);
+  EXPECT_GT((D - dense(Hfixed)).norm(), 0.1 * D.norm() / n);
+  EXPECT_LT(eliminated_hessian_error(e, X, solve_p, D), 1e-5);
 }

@@ -61,6 +61,12 @@ struct SymmetricVolumeMapOptions {
   // stages 2 and 4 with this memory, once beta and gamma are final; each proposal is kept
   // only if Eq. 25 after its P-step is below the last X-step's energy. 0 = off.
   int anderson_memory = 0;
+  // Ours (issue 19): Newton X-steps on Eq. 25 with P_ij eliminated (re-solved at every
+  // trial X_ij; DirectionalEnergy::add_eliminated_p_hessian). The alternation of fixed-P
+  // steps moves X and P together by about b·a/(b + a) / b of the way per iteration (b, a
+  // the weights of E_Q and E_R: 1/11 at beta = 5, alpha = 0.5), so stage 4 crawled on real
+  // pairs. Newton solver only.
+  bool eliminate_p = true;
   int xstep_iterations = 15;   // L-BFGS iterations per X-step (Sec. 5.2; not in the paper:
                                // 15 gave the same maps as 30 on a 30k-tet pair at half the
                                // cost, docs/methods.md)
@@ -214,6 +220,11 @@ class DirectionalEnergy {
   double backward_scale() const { return bscale_; }
   // P_ij: n_i rows -> tets of M_j; P_ji: n_j rows -> tets of M_i.
   void set_maps(const BarycentricMap& P_ij, const BarycentricMap& P_ji);
+  void set_forward_map(const BarycentricMap& P_ij);   // P_ij alone
+  void set_backward_map(const BarycentricMap& P_ji);  // P_ji alone
+  // (1 - alpha) E_R (Eq. 18, term (j,i)) + beta E_Q (Eq. 17), the terms with P in them, as
+  // they enter evaluate().
+  double weighted_map_terms(const Eigen::MatrixXd& X) const;
   // Adds the inversion barrier (landing stage, inversion_barrier.h) to Eq. 25 with weight
   // 1, or removes it (nullptr). Kept by pointer: the caller owns it.
   void set_barrier(const InversionBarrier* barrier) { barrier_ = barrier; }
@@ -230,6 +241,20 @@ class DirectionalEnergy {
   // E_P,b by Gauss-Newton with the closest point's barycentric coordinates held (point to
   // plane on a face of dF_i(X), point to point on an edge or a vertex).
   void add_hessian(const Eigen::MatrixXd& X, BlockHessian& H) const;
+  // Ours (issue 19): the X-step with both P's eliminated. Row v of P_ij minimizes
+  // b|X_v - y|^2 + a|X_ji(y) - V_i(v)|^2 over points y of M_j (E_Q of this direction, E_R of
+  // the other: the P-step), row w of P_ji likewise with E_R of this direction; with the P's
+  // at their minimizers, Eq. 25 as a function of X has the fixed-P gradient (envelope
+  // theorem) and a Hessian with these terms replaced by their Schur complements (y's
+  // response; see the .cpp; T spans the directions in which y is free: all, or along the
+  // faces of the boundary it lies on). add_hessian() holds the P's fixed; this adds the
+  // difference, so X and P move together in one Newton step where the alternation of
+  // fixed-P steps crawls. X: this direction's X_ij, X_ji the other's (held); held_ij,
+  // held_ji: rows of P_ij, P_ji that the P-step does not move (stage 2's boundary), or null.
+  void add_eliminated_p_hessian(const Eigen::MatrixXd& X, const BarycentricMap& P_ij,
+                                const Eigen::MatrixXd& X_ji, BlockHessian& H,
+                                const std::vector<char>* held_ij = nullptr,
+                                const std::vector<char>* held_ji = nullptr) const;
   // ARAP only (Sec. 5.3) on the tets incident to `free_vertices`.
   const ArapEnergy& arap() const { return arap_; }
   const TetBoundary& boundary_i() const { return bi_; }
@@ -249,6 +274,7 @@ class DirectionalEnergy {
   double ci_ = 1, cj_ = 1, si_ = 1, sj_ = 1;
   double alpha_ = 0.5, beta_ = 0.25, gamma_ = 25, bscale_ = 1;
   Eigen::MatrixXi Fi_vol_;           // boundary faces of M_i in volume numbering
+  std::vector<unsigned char> bi_faces_, bj_faces_;  // per tet: bit q = face opposite corner q on the boundary
   const InversionBarrier* barrier_ = nullptr;
   std::vector<int> anchor_rows_;     // set_anchors
   Eigen::MatrixXd anchor_pts_;
