@@ -185,9 +185,8 @@ Command register_volume_map(CLI::App& app, GlobalOptions& g) {
 
 namespace {
 
-CLI::App* add_volume_map_command(CLI::App& parent, VolumeMapArgs& a) {
-  CLI::App* app = parent.add_subcommand("volume-map", "Symmetric volume map between two tetrahedral meshes");
-  add_pair_options(app, a.A, a.B, a.out, "Source: tet mesh or closed surface", "Target: tet mesh or closed surface");
+// The initialization (Algorithm 1, line 1): its kind and the files it reads.
+void add_initialization_options(CLI::App* app, VolumeMapArgs& a) {
   app->add_option("--init", a.init, "Initialization: auto (surface map by BIM + elastic), "
                                        "ball (registration through ball maps, both ways), "
                                        "landmarks, surface-map (default: landmarks if given, "
@@ -210,6 +209,10 @@ CLI::App* add_volume_map_command(CLI::App& parent, VolumeMapArgs& a) {
       ->capture_default_str();
   app->add_option("--tets", a.tets, "Target tet count when tetrahedralizing surfaces (0: default)")
       ->check(in_range(0, kMaxTets));
+}
+
+// The weights of Eq. 25 and their ramp (Sec. 4.4, Eq. 23).
+void add_energy_weight_options(CLI::App* app, VolumeMapArgs& a) {
   app->add_option("--alpha", a.opt.alpha, "Eq. 25 rigidity weight alpha")
       ->check(non_negative())
       ->capture_default_str();
@@ -234,6 +237,11 @@ CLI::App* add_volume_map_command(CLI::App& parent, VolumeMapArgs& a) {
                     "Eq. 23: E_P = E_P,f + scale E_P,b (paper: 1; the authors' code: 10)")
       ->check(non_negative())
       ->capture_default_str();
+}
+
+// The alternation of Algorithm 1 (Sec. 5.4): iterations per stage, the X-step solver
+// (Sec. 5.2), the boundary-fixed stage and Anderson acceleration.
+void add_alternation_options(CLI::App* app, VolumeMapArgs& a) {
   app->add_option("--max-iterations", a.opt.max_iterations, "Outer iterations per stage (Sec. 5.4)")
       ->check(non_negative())
       ->capture_default_str();
@@ -262,6 +270,10 @@ CLI::App* add_volume_map_command(CLI::App& parent, VolumeMapArgs& a) {
                   "Newton X-steps with P eliminated: each trial X re-solves its P-step and the Hessian "
                   "takes P's response (ours; 0 = the paper's alternation of fixed-P steps)")
       ->capture_default_str();
+}
+
+// Stage 5 (post-repair) and the landing on the target (ours, issue 19).
+void add_post_repair_and_landing_options(CLI::App* app, VolumeMapArgs& a) {
   app->add_flag("--no-land-on-target", [&a](std::int64_t) { a.opt.land_on_target = false; },
                   "Skip the final stage that puts X's boundary on the target's boundary and relaxes the "
                   "interior (ours; without it the map files snap images left outside into the target)");
@@ -298,6 +310,15 @@ CLI::App* add_volume_map_command(CLI::App& parent, VolumeMapArgs& a) {
                     "turns over (ours; 0 = off)")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1.0));
+}
+
+CLI::App* add_volume_map_command(CLI::App& parent, VolumeMapArgs& a) {
+  CLI::App* app = parent.add_subcommand("volume-map", "Symmetric volume map between two tetrahedral meshes");
+  add_pair_options(app, a.A, a.B, a.out, "Source: tet mesh or closed surface", "Target: tet mesh or closed surface");
+  add_initialization_options(app, a);
+  add_energy_weight_options(app, a);
+  add_alternation_options(app, a);
+  add_post_repair_and_landing_options(app, a);
   app->add_flag("--boundary-to-boundary", a.opt.boundary_to_boundary,
                   "Hard boundary constraint in the P-step (Sec. 5.2)");
   return app;

@@ -254,6 +254,48 @@ SurfaceRepair repair_result(const Mesh& mesh, const Mesh::Property_map<VI, int>&
   return R;
 }
 
+// The polygon soup of the kept faces: the input vertices they reference (representatives
+// after merging), numbered in input order as points (point_of: input vertex -> point or -1;
+// soup_from: point -> input vertex), and the faces in that numbering.
+void polygon_soup(const TriMesh& in, const std::vector<std::array<int, 3>>& faces, std::vector<int>& point_of,
+                  std::vector<Point>& points, std::vector<int>& soup_from,
+                  std::vector<std::vector<std::size_t>>& polygons) {
+  const int n = int(in.V.rows());
+  point_of.assign(size_t(n), -1);
+  for (const auto& t : faces)
+    for (int v : t) point_of[size_t(v)] = -2;  // mark; numbered below in input order
+  for (int i = 0; i < n; ++i)
+    if (point_of[size_t(i)] == -2) {
+      point_of[size_t(i)] = int(points.size());
+      points.emplace_back(in.V(i, 0), in.V(i, 1), in.V(i, 2));
+      soup_from.push_back(i);
+    }
+  polygons.reserve(faces.size());
+  for (const auto& t : faces)
+    polygons.push_back({size_t(point_of[size_t(t[0])]), size_t(point_of[size_t(t[1])]), size_t(point_of[size_t(t[2])])});
+}
+
+// Step 3's orientation of the soup (CGAL orient_polygon_soup), which splits the non-manifold
+// edges and vertices: the copies it appends get their original's input vertex in soup_from.
+// nm_edges, nm_vertices: the non-manifold edges and vertices of the soup before, as
+// `shapemap check` counts them.
+void orient_soup(std::vector<Point>& points, std::vector<std::vector<std::size_t>>& polygons,
+                 std::vector<int>& soup_from, int& nm_edges, int& nm_vertices) {
+  TriMesh soup;
+  soup.V.resize(Eigen::Index(points.size()), 3);
+  for (size_t p = 0; p < points.size(); ++p)
+    soup.V.row(Eigen::Index(p)) << points[p].x(), points[p].y(), points[p].z();
+  soup.F.resize(Eigen::Index(polygons.size()), 3);
+  for (size_t f = 0; f < polygons.size(); ++f)
+    for (int j = 0; j < 3; ++j) soup.F(Eigen::Index(f), j) = int(polygons[f][size_t(j)]);
+  const MeshReport r = check_surface(soup);
+  nm_edges = r.non_manifold_edges;
+  nm_vertices = r.non_manifold_vertices;
+  CopyVisitor visitor;
+  visitor.from = &soup_from;
+  PMP::orient_polygon_soup(points, polygons, CGAL::parameters::visitor(visitor));
+}
+
 }  // namespace
 
 SurfaceRepair repair_surface(const TriMesh& in, const std::string& name, const SurfaceRepairOptions& opt) {
@@ -287,26 +329,11 @@ SurfaceRepair repair_surface(const TriMesh& in, const std::string& name, const S
                     " removed (" + what + ")");
   }
 
-  // Soup points: the referenced representatives, in input order.
-  std::vector<int> point_of(size_t(n), -1), soup_from;
-  std::vector<Point> points;
-  for (auto& t : faces)
-    for (int& v : t) {
-      if (point_of[size_t(v)] < 0) {
-        point_of[size_t(v)] = -2;  // mark; numbered below in input order
-      }
-    }
-  for (int i = 0; i < n; ++i)
-    if (point_of[size_t(i)] == -2) {
-      point_of[size_t(i)] = int(points.size());
-      points.emplace_back(in.V(i, 0), in.V(i, 1), in.V(i, 2));
-      soup_from.push_back(i);
-    }
   if (faces.empty()) return identity_repair(in);  // every face degenerate: the guard says so
+  std::vector<int> point_of, soup_from;
+  std::vector<Point> points;
   std::vector<std::vector<std::size_t>> polygons;
-  polygons.reserve(faces.size());
-  for (auto& t : faces)
-    polygons.push_back({size_t(point_of[size_t(t[0])]), size_t(point_of[size_t(t[1])]), size_t(point_of[size_t(t[2])])});
+  polygon_soup(in, faces, point_of, points, soup_from, polygons);
   int unreferenced = 0;
   for (int i = 0; i < n; ++i) unreferenced += point_of[size_t(rep[size_t(i)])] < 0;
 
@@ -317,21 +344,7 @@ SurfaceRepair repair_surface(const TriMesh& in, const std::string& name, const S
   // boundary cycle only, so the sheets stay apart.
   int nm_edges = 0, nm_vertices = 0;
   const size_t soup_points = points.size();
-  {
-    TriMesh soup;
-    soup.V.resize(Eigen::Index(points.size()), 3);
-    for (size_t p = 0; p < points.size(); ++p)
-      soup.V.row(Eigen::Index(p)) << points[p].x(), points[p].y(), points[p].z();
-    soup.F.resize(Eigen::Index(polygons.size()), 3);
-    for (size_t f = 0; f < polygons.size(); ++f)
-      for (int j = 0; j < 3; ++j) soup.F(Eigen::Index(f), j) = int(polygons[f][size_t(j)]);
-    const MeshReport r = check_surface(soup);
-    nm_edges = r.non_manifold_edges;
-    nm_vertices = r.non_manifold_vertices;
-    CopyVisitor visitor;
-    visitor.from = &soup_from;
-    PMP::orient_polygon_soup(points, polygons, CGAL::parameters::visitor(visitor));
-  }
+  orient_soup(points, polygons, soup_from, nm_edges, nm_vertices);
   if (!PMP::is_polygon_soup_a_polygon_mesh(polygons))
     throw InputError(name + ": could not be made a manifold surface (CGAL orient_polygon_soup)");
   Mesh mesh;

@@ -197,6 +197,11 @@ TetMesh extract_tets(const C3t3& c3t3, const std::string& name) {
   return out;
 }
 
+// One Mesh_3 run on a closed surface: the criteria from the edge length, the optimization
+// steps, the runaway guard, then the crease-protected meshing with the plain meshing as its
+// fallback. Longer than 100 lines on purpose: the criteria, the guard and the optimization
+// parameter objects (each of its own CGAL type) feed both meshing calls, and the domain is
+// rebuilt between them; split, they would travel as templates over those types.
 TetMesh mesh_once(const TriMesh& surface_in, const TetrahedralizeOptions& opt,
                   const ProgressCallback& progress, TetrahedralizeInfo* info) {
   if (info) *info = TetrahedralizeInfo{};

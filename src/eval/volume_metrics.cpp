@@ -5,25 +5,22 @@
 #include "shapemap/geometry/mass.h"
 #include "shapemap/geometry/svd3.h"
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
+#include <string>
 #include <vector>
 
 namespace shapemap {
 
-VolumeMapMetrics volume_map_metrics(const TetMesh& source, const TetMesh& target,
-                                    const Eigen::MatrixXd& X, const BarycentricMap* P_ij,
-                                    const Eigen::MatrixXd* X_ji, const Eigen::MatrixXd* truth) {
-  const int ni = source.num_vertices(), m = source.num_tets();
-  if (X.rows() != ni || X.cols() != 3)
-    throw InputError("map: " + std::to_string(X.rows()) + " images for " + std::to_string(ni) +
-                     " source vertices");
-  VolumeMapMetrics r;
-  r.num_tets = m;
-  const double diag = bbox_diagonal(target.V);
-  Normalization ns = unit_volume_normalization(source), nt = unit_volume_normalization(target);
-  Eigen::MatrixXd Vs = ns.apply(source.V), Xn = nt.apply(X);
+namespace {
 
-  // Per tet: det J (inversion), |det J^| (column-normalized), f_ARAP (Eq. 19).
+// Sec. 6.1 and Eq. 20, per source tet k with its Jacobian J_k (unit-volume frames): whether
+// it is inverted (det J <= 0), |det J^| with J^ = J with unit columns, and
+// f_ARAP = sum (sigma - 1)^2 (Eq. 19); then n_inv, E_ARAP and the volume-weighted mean and
+// SD of |det J^|. Vs, Xn: source vertices and their images, each in its unit-volume frame.
+void jacobian_distortion(const TetMesh& source, const Eigen::MatrixXd& Vs, const Eigen::MatrixXd& Xn,
+                         VolumeMapMetrics& r) {
+  const int m = source.num_tets();
   Eigen::VectorXd vol(m), detn(m), farap(m);
   Eigen::VectorXi inv(m);
 #pragma omp parallel for schedule(static)
@@ -61,57 +58,83 @@ VolumeMapMetrics volume_map_metrics(const TetMesh& source, const TetMesh& target
   double var = 0;
   for (int k = 0; k < m; ++k) var += vol(k) * (detn(k) - r.det_mean) * (detn(k) - r.det_mean);
   r.det_sd = V > 0 ? std::sqrt(var / V) : 0;
+}
 
-  // Eqs. 27-28 between the mapped boundary X(dM_i) and dM_j, at vertices.
+// Eqs. 27-28 between the mapped boundary X(dM_i) and dM_j, at vertices, over the target's
+// bbox diagonal: d^_avg (both ways) and d^_max.
+void boundary_distances(const TetMesh& source, const TetMesh& target, const Eigen::MatrixXd& X, double diag,
+                        VolumeMapMetrics& r) {
   TetBoundary bs = boundary_surface(source), bt = boundary_surface(target);
   Eigen::MatrixXd Xb(bs.to_volume.size(), 3);
   for (int b = 0; b < Xb.rows(); ++b) Xb.row(b) = X.row(bs.to_volume(b));
   ClosestPoint3 to_target(bt.surface.V, bt.surface.F), to_mapped(Xb, bs.surface.F);
   std::vector<ClosestPointResult> r1 = to_target.query(Xb), r2 = to_mapped.query(bt.surface.V);
   double sum = 0, mx = 0;
-  for (auto& q : r1) {
-    double d = std::sqrt(std::max(0.0, q.sqdist));
-    sum += d;
-    mx = std::max(mx, d);
-  }
-  for (auto& q : r2) {
-    double d = std::sqrt(std::max(0.0, q.sqdist));
-    sum += d;
-    mx = std::max(mx, d);
-  }
+  for (const std::vector<ClosestPointResult>* side : {&r1, &r2})
+    for (const auto& q : *side) {
+      double d = std::sqrt(std::max(0.0, q.sqdist));
+      sum += d;
+      mx = std::max(mx, d);
+    }
   const double cnt = double(r1.size() + r2.size());
   r.d_avg = cnt > 0 && diag > 0 ? sum / cnt / diag : 0;
   r.d_max = diag > 0 ? mx / diag : 0;
+}
 
-  // Eq. 18 term (i,j), unit-volume frames.
-  if (P_ij && X_ji) {
-    validate_map(*P_ij, ni, target.num_tets(), 4, "map");
-    if (X_ji->rows() != target.num_vertices() || X_ji->cols() != 3)
-      throw InputError("reverse map: wrong number of rows");
-    Eigen::MatrixXd Xjin = ns.apply(*X_ji);  // target vertices' images, source unit frame
-    Eigen::VectorXd C = tet_lumped_mass(Vs, source.T);
-    double c = C.sum(), e = 0;
-    for (int v = 0; v < ni; ++v) {
-      Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
-      for (int q = 0; q < 4; ++q) p += P_ij->bary(v, q) * Xjin.row(target.T(P_ij->elem(v), q));
-      e += C(v) * (p - Vs.row(v)).squaredNorm();
-    }
-    r.E_R = e / (c * c);
+// Eq. 18 term (i,j) in the source's unit-volume frame ns (Vs = ns(V_i)):
+// 1/c_i^2 ||P_ij X_ji - V_i||^2_{M_i}, with the lumped tet mass of M_i.
+double reversibility_energy(const TetMesh& source, const TetMesh& target, const Normalization& ns,
+                            const Eigen::MatrixXd& Vs, const BarycentricMap& P_ij, const Eigen::MatrixXd& X_ji) {
+  const int ni = source.num_vertices();
+  validate_map(P_ij, ni, target.num_tets(), 4, "map");
+  if (X_ji.rows() != target.num_vertices() || X_ji.cols() != 3)
+    throw InputError("reverse map: wrong number of rows");
+  Eigen::MatrixXd Xjin = ns.apply(X_ji);  // target vertices' images, source unit frame
+  Eigen::VectorXd C = tet_lumped_mass(Vs, source.T);
+  double c = C.sum(), e = 0;
+  for (int v = 0; v < ni; ++v) {
+    Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
+    for (int q = 0; q < 4; ++q) p += P_ij.bary(v, q) * Xjin.row(target.T(P_ij.elem(v), q));
+    e += C(v) * (p - Vs.row(v)).squaredNorm();
   }
-  if (truth) {
-    if (truth->rows() != ni || truth->cols() != 3)
-      throw InputError("truth: " + std::to_string(truth->rows()) + " rows for " +
-                       std::to_string(ni) + " source vertices");
-    r.has_truth = true;
-    double s = 0, mx2 = 0;
-    for (int v = 0; v < ni; ++v) {
-      double d = (X.row(v) - truth->row(v)).norm();
-      s += d;
-      mx2 = std::max(mx2, d);
-    }
-    r.truth_mean = diag > 0 ? s / ni / diag : 0;
-    r.truth_max = diag > 0 ? mx2 / diag : 0;
+  return e / (c * c);
+}
+
+// Mean and largest |X - X_true| over the target's bbox diagonal.
+void truth_error(const Eigen::MatrixXd& X, const Eigen::MatrixXd& truth, double diag, VolumeMapMetrics& r) {
+  const int ni = int(X.rows());
+  if (truth.rows() != ni || truth.cols() != 3)
+    throw InputError("truth: " + std::to_string(truth.rows()) + " rows for " + std::to_string(ni) +
+                     " source vertices");
+  r.has_truth = true;
+  double s = 0, mx2 = 0;
+  for (int v = 0; v < ni; ++v) {
+    double d = (X.row(v) - truth.row(v)).norm();
+    s += d;
+    mx2 = std::max(mx2, d);
   }
+  r.truth_mean = diag > 0 ? s / ni / diag : 0;
+  r.truth_max = diag > 0 ? mx2 / diag : 0;
+}
+
+}  // namespace
+
+VolumeMapMetrics volume_map_metrics(const TetMesh& source, const TetMesh& target,
+                                    const Eigen::MatrixXd& X, const BarycentricMap* P_ij,
+                                    const Eigen::MatrixXd* X_ji, const Eigen::MatrixXd* truth) {
+  const int ni = source.num_vertices();
+  if (X.rows() != ni || X.cols() != 3)
+    throw InputError("map: " + std::to_string(X.rows()) + " images for " + std::to_string(ni) +
+                     " source vertices");
+  VolumeMapMetrics r;
+  r.num_tets = source.num_tets();
+  const double diag = bbox_diagonal(target.V);
+  Normalization ns = unit_volume_normalization(source), nt = unit_volume_normalization(target);
+  Eigen::MatrixXd Vs = ns.apply(source.V), Xn = nt.apply(X);
+  jacobian_distortion(source, Vs, Xn, r);
+  boundary_distances(source, target, X, diag, r);
+  if (P_ij && X_ji) r.E_R = reversibility_energy(source, target, ns, Vs, *P_ij, *X_ji);
+  if (truth) truth_error(X, *truth, diag, r);
   return r;
 }
 

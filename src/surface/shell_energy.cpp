@@ -35,17 +35,18 @@ double membrane_density(double t, double d, double lambda, double mu, double eps
   return mu / 2 * t + lambda / 4 * d + c * mlog - mu - lambda / 4;
 }
 
-ShellEnergy::ShellEnergy(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F,
-                         const ShellEnergyOptions& opt)
-    : opt_(opt), n_(int(X.rows())), F_(F) {
-  if (X.cols() != 3 || F.cols() != 3) throw InputError("shell energy: X must be n×3 and F m×3");
+namespace {
+
+// Eq. 7's reference metric per face t of X: g^-1 (its three entries), the area a^_t,
+// det g^_t and |n^_t|. A degenerate reference triangle carries no membrane term (a^ = 0)
+// and no bending: zeros. Returns the unit reference normals (m×3, zero where degenerate).
+Eigen::MatrixXd reference_metric(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F, Eigen::MatrixXd& ginv,
+                                 Eigen::VectorXd& area, Eigen::VectorXd& detg, Eigen::VectorXd& nref) {
   const int m = int(F.rows());
-  if (m > 0 && (F.minCoeff() < 0 || F.maxCoeff() >= n_))
-    throw InputError("shell energy: face index out of range");
-  ginv_.setZero(m, 3);
-  area_.setZero(m);
-  detg_.setZero(m);
-  nref_.setZero(m);
+  ginv.setZero(m, 3);
+  area.setZero(m);
+  detg.setZero(m);
+  nref.setZero(m);
   Eigen::MatrixXd nunit = Eigen::MatrixXd::Zero(m, 3);
   for (int f = 0; f < m; ++f) {
     const V3 x0 = X.row(F(f, 0)), x1 = X.row(F(f, 1)), x2 = X.row(F(f, 2));
@@ -53,22 +54,34 @@ ShellEnergy::ShellEnergy(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F,
     const V3 N = e1.cross(e2);
     const double g00 = e1.dot(e1), g01 = e1.dot(e2), g11 = e2.dot(e2);
     const double det = N.squaredNorm();  // = g00 g11 - g01^2, computed stably
-    nref_(f) = std::sqrt(det);
-    area_(f) = 0.5 * nref_(f);
-    detg_(f) = det;
-    // A degenerate reference triangle carries no membrane term (a^ = 0) and no bending.
+    nref(f) = std::sqrt(det);
+    area(f) = 0.5 * nref(f);
+    detg(f) = det;
     if (det > 1e-300 && det > 1e-24 * (g00 * g11)) {
-      ginv_(f, 0) = g11 / det;
-      ginv_(f, 1) = -g01 / det;
-      ginv_(f, 2) = g00 / det;
-      nunit.row(f) = (N / nref_(f)).transpose();
+      ginv(f, 0) = g11 / det;
+      ginv(f, 1) = -g01 / det;
+      ginv(f, 2) = g00 / det;
+      nunit.row(f) = (N / nref(f)).transpose();
     } else {
-      area_(f) = 0;
-      detg_(f) = 0;
-      nref_(f) = 0;
+      area(f) = 0;
+      detg(f) = 0;
+      nref(f) = 0;
     }
   }
-  // Edges: half-edges (a<b, face, corner) sorted; exactly two faces -> interior edge.
+  return nunit;
+}
+
+// Eq. 9's hinges of the reference: the interior edges (exactly two non-degenerate faces)
+// with their faces and end points (E, k×4), cos th^_e and the weight l^_e^2 / d^_e, and per
+// face slot (edge opposite corner j) the edge index (or -1) and the face's side of it.
+struct ReferenceHinges {
+  Eigen::MatrixXi E, face_edge, face_side;
+  Eigen::VectorXd cos_ref, weight;
+};
+ReferenceHinges reference_hinges(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F, const Eigen::VectorXd& area,
+                                 const Eigen::VectorXd& nref, const Eigen::MatrixXd& nunit) {
+  const int m = int(F.rows());
+  // Half-edges (a<b, face, corner) sorted; exactly two faces -> interior edge.
   std::vector<std::tuple<int, int, int, int>> he;
   he.reserve(3 * m);
   for (int f = 0; f < m; ++f)
@@ -78,8 +91,9 @@ ShellEnergy::ShellEnergy(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F,
       he.emplace_back(a, b, f, j);
     }
   std::sort(he.begin(), he.end());
-  face_edge_.setConstant(m, 3, -1);
-  face_side_.setZero(m, 3);
+  ReferenceHinges h;
+  h.face_edge.setConstant(m, 3, -1);
+  h.face_side.setZero(m, 3);
   std::vector<std::array<int, 4>> edges;
   std::vector<double> cosr, w;
   for (size_t i = 0; i < he.size();) {
@@ -91,44 +105,70 @@ ShellEnergy::ShellEnergy(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F,
       const int f0 = std::get<2>(he[i]), c0 = std::get<3>(he[i]);
       const int f1 = std::get<2>(he[i + 1]), c1 = std::get<3>(he[i + 1]);
       const int a = std::get<0>(he[i]), b = std::get<1>(he[i]);
-      if (nref_(f0) > 0 && nref_(f1) > 0 && f0 != f1) {
+      if (nref(f0) > 0 && nref(f1) > 0 && f0 != f1) {
         const int e = int(edges.size());
         edges.push_back({f0, f1, a, b});
         const double l2 = (X.row(a) - X.row(b)).squaredNorm();
-        const double d = (area_(f0) + area_(f1)) / 3.0;
+        const double d = (area(f0) + area(f1)) / 3.0;
         cosr.push_back(nunit.row(f0).dot(nunit.row(f1)));
         w.push_back(l2 / d);
-        face_edge_(f0, c0) = e;
-        face_side_(f0, c0) = 0;
-        face_edge_(f1, c1) = e;
-        face_side_(f1, c1) = 1;
+        h.face_edge(f0, c0) = e;
+        h.face_side(f0, c0) = 0;
+        h.face_edge(f1, c1) = e;
+        h.face_side(f1, c1) = 1;
       }
     }
     i = j;
   }
   const int k = int(edges.size());
-  E_.resize(k, 4);
-  cos_ref_.resize(k);
-  weight_.resize(k);
+  h.E.resize(k, 4);
+  h.cos_ref.resize(k);
+  h.weight.resize(k);
   for (int e = 0; e < k; ++e) {
-    for (int c = 0; c < 4; ++c) E_(e, c) = edges[e][c];
-    cos_ref_(e) = cosr[e];
-    weight_(e) = w[e];
+    for (int c = 0; c < 4; ++c) h.E(e, c) = edges[e][c];
+    h.cos_ref(e) = cosr[e];
+    h.weight(e) = w[e];
   }
-  // vertex -> (face, corner), CSR in increasing face order (fixed gather order).
-  vf_start_.assign(n_ + 1, 0);
+  return h;
+}
+
+// vertex -> (face, corner), CSR over n vertices in increasing face order (a fixed gather
+// order, so that the gradient does not depend on threads).
+void vertex_face_corners(const Eigen::MatrixXi& F, int n, std::vector<int>& start, std::vector<int>& face,
+                         std::vector<int>& corner) {
+  const int m = int(F.rows());
+  start.assign(n + 1, 0);
   for (int f = 0; f < m; ++f)
-    for (int j = 0; j < 3; ++j) vf_start_[F(f, j) + 1]++;
-  for (int i = 0; i < n_; ++i) vf_start_[i + 1] += vf_start_[i];
-  vf_face_.resize(3 * m);
-  vf_corner_.resize(3 * m);
-  std::vector<int> fill(vf_start_.begin(), vf_start_.end() - 1);
+    for (int j = 0; j < 3; ++j) start[F(f, j) + 1]++;
+  for (int i = 0; i < n; ++i) start[i + 1] += start[i];
+  face.resize(3 * m);
+  corner.resize(3 * m);
+  std::vector<int> fill(start.begin(), start.end() - 1);
   for (int f = 0; f < m; ++f)
     for (int j = 0; j < 3; ++j) {
       const int p = fill[F(f, j)]++;
-      vf_face_[p] = f;
-      vf_corner_[p] = j;
+      face[p] = f;
+      corner[p] = j;
     }
+}
+
+}  // namespace
+
+ShellEnergy::ShellEnergy(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F,
+                         const ShellEnergyOptions& opt)
+    : opt_(opt), n_(int(X.rows())), F_(F) {
+  if (X.cols() != 3 || F.cols() != 3) throw InputError("shell energy: X must be n×3 and F m×3");
+  const int m = int(F.rows());
+  if (m > 0 && (F.minCoeff() < 0 || F.maxCoeff() >= n_))
+    throw InputError("shell energy: face index out of range");
+  const Eigen::MatrixXd nunit = reference_metric(X, F, ginv_, area_, detg_, nref_);
+  ReferenceHinges h = reference_hinges(X, F, area_, nref_, nunit);
+  E_ = std::move(h.E);
+  cos_ref_ = std::move(h.cos_ref);
+  weight_ = std::move(h.weight);
+  face_edge_ = std::move(h.face_edge);
+  face_side_ = std::move(h.face_side);
+  vertex_face_corners(F, n_, vf_start_, vf_face_, vf_corner_);
   fdeg_.resize(m);
   fNlen_.resize(m);
   fn_.resize(3 * size_t(m));

@@ -100,7 +100,8 @@ void expect_same_at_1_and_2_threads(const TempDir& t, const std::string& tag, co
   expect_identical(outs[0], outs[1]);
 }
 
-// One small generated pair with tets, shared by the tests below.
+// One small generated pair with tets, shared by the tests below (ctest runs this suite in one
+// process: SHAPEMAP_SHARED_FIXTURE_SUITES_cli in CMakeLists.txt).
 const TempDir& pair_dir() {
   static TempDir t("threads_pair");
   static const bool made = [] {
@@ -124,18 +125,24 @@ TEST(ThreadsIdentical, Tetrahedralize) {
   expect_same_at_1_and_2_threads(t, "tet", "tetrahedralize " + p.p("pair/A.obj") + " -o OUT --tets 2000", ".vtk");
 }
 
+// BIM with 128 samples and 1000 candidates (defaults 256, 10000): every stage runs, with
+// enough samples and candidates per thread, and the defaults' consistency matrix (10000^2
+// products) would be most of the time.
+const std::string kFastBim = " --samples 128 --candidates 1000";
+
 TEST(ThreadsIdentical, SurfaceMapBim) {
   const TempDir& p = pair_dir();
   TempDir t("threads_bim");
   expect_same_at_1_and_2_threads(t, "bim", "surface-map " + p.p("pair/A.obj") + " " + p.p("pair/B.obj") +
-                                               " -o OUT --method bim --symmetric");
+                                               " -o OUT --method bim --symmetric" + kFastBim);
 }
 
 TEST(ThreadsIdentical, SurfaceMapElastic) {
   const TempDir& p = pair_dir();
   TempDir t("threads_elastic");
   expect_same_at_1_and_2_threads(t, "el", "surface-map " + p.p("pair/A.obj") + " " + p.p("pair/B.obj") +
-                                              " -o OUT --method elastic --symmetric --elastic-iterations 20");
+                                              " -o OUT --method elastic --symmetric --elastic-iterations 20" +
+                                              kFastBim);
 }
 
 TEST(ThreadsIdentical, VolumeMap) {

@@ -14,6 +14,10 @@ TEST(PreparedSurfaceIO, LoadedSurfacesGiveTheSameMap) {
   req.symmetric = true;
   req.bim.name_A = "A";
   req.bim.name_B = "B";
+  // 128 samples and 1000 candidates (defaults 256, 10000): the maps are compared with each
+  // other, and the defaults' consistency matrix would be most of the time.
+  req.bim.num_even = 128;
+  req.bim.max_candidates = 1000;
   const SurfaceMapRun direct = run_surface_map(A, B, req);
 
   const auto pA = prepare_surface(A, "A", req.bim, false), pB = prepare_surface(B, "B", req.bim, false);

@@ -295,6 +295,8 @@ TEST(SymmetricMapInit, SurfaceMapPutsBoundaryOnBoundary) {
   }
 }
 
+// The two end-to-end maps, computed once for the SymmetricVolumeMap tests below (ctest runs
+// this suite in one process: SHAPEMAP_SHARED_FIXTURE_SUITES_volume in CMakeLists.txt).
 namespace {
 struct EndToEnd {
   TetMesh A, B;
