@@ -144,9 +144,10 @@ CLI::App* add_surface_map_command(CLI::App& parent, SurfaceMapArgs& a) {
   app->add_flag("--symmetric", a.symmetric,
                 "BIM: also compute the map B -> A (the elastic bijective model always does; "
                 "not with --elastic-injective)");
-  app->add_flag("--reverse-candidates", a.bim.reverse_candidates,
+  app->add_flag("--reverse-candidates,!--no-reverse-candidates", a.bim.reverse_candidates,
                 "BIM with --symmetric (and elastic's BIM init): the direction with the less confident "
-                "blend takes the inverse of the other direction's blend");
+                "blend takes the inverse of the other direction's blend (the default; "
+                "--no-reverse-candidates keeps each direction's own blend)");
   app->add_option("--features", a.bim.max_features, "BIM: at most this many AGD feature points per surface")
       ->check(CLI::Range(3, 30));
   app->add_option("--candidates", a.bim.max_candidates, "BIM: at most this many candidate Möbius maps")

@@ -46,7 +46,7 @@ SurfaceMapDirection viewer_direction(const TriMesh& S, const TriMesh& T, const B
   d.images = map_positions(P, T.V, T.F);
   // Flags exactly as surface_distortion counts them (report.json): on unit-area copies.
   const Eigen::MatrixXd X = unit_area_normalization(S).apply(S.V), Xt = unit_area_normalization(T).apply(T.V);
-  fold_counts(X, S.F, map_positions(P, Xt, T.F), face_normals(Xt, T.F), P.elem,
+  fold_counts(X, S.F, map_positions(P, Xt, T.F), face_normals(Xt, T.F), T.F, P,
               SurfaceDistortionOptions().degenerate_tol, &d.face_flags);
   return d;
 }

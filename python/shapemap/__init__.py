@@ -155,7 +155,7 @@ def prepare_surface(V, F, seed=1, features=10, samples=256, strict=False, name="
 
 
 def surface_map(VA, FA, VB, FB, method="bim", landmarks=None, init=None, init_reverse=None, symmetric=False,
-                seed=1, threads=0, features=10, candidates=10000, samples=256, reverse_candidates=False,
+                seed=1, threads=0, features=10, candidates=10000, samples=256, reverse_candidates=True,
                 truth=None, strict=False, elastic_preset="auto", elastic_eta=-1.0, elastic_alpha=20.0,
                 elastic_iterations=300, elastic_injective=False, elastic_partial=False,
                 elastic_keep_worse=False, names=("A", "B"), prepared=None, progress=None):

@@ -74,12 +74,50 @@ Eigen::VectorXd area_distortion(const Eigen::MatrixXd& X, const Eigen::MatrixXd&
 }
 
 FoldCounts fold_counts(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F, const Eigen::MatrixXd& Y,
-                       const Eigen::MatrixXd& Nt, const Eigen::VectorXi& elem, double degenerate_tol,
-                       std::vector<unsigned char>* faces) {
+                       const Eigen::MatrixXd& Nt, const Eigen::MatrixXi& Ft, const BarycentricMap& P,
+                       double degenerate_tol, std::vector<unsigned char>* faces) {
   const int m = int(F.rows());
   if (faces) faces->assign(m, 0);
   FoldCounts c;
   const double log_tol = std::log(degenerate_tol);
+  // faces around each target vertex (CSR)
+  const int nt = Ft.rows() ? int(Ft.maxCoeff()) + 1 : 0;
+  std::vector<int> start(nt + 1, 0), around;
+  for (int t = 0; t < Ft.rows(); ++t)
+    for (int j = 0; j < 3; ++j) ++start[Ft(t, j) + 1];
+  for (int v = 0; v < nt; ++v) start[v + 1] += start[v];
+  around.resize(start[nt]);
+  {
+    std::vector<int> fill(start.begin(), start.end() - 1);
+    for (int t = 0; t < Ft.rows(); ++t)
+      for (int j = 0; j < 3; ++j) around[fill[Ft(t, j)]++] = t;
+  }
+  constexpr double kAt = 1e-6;  // barycentric tolerance: on an edge / at a vertex
+  // The target normal at P's point i that is the most aligned with n: the normal of its face,
+  // or of a face around the vertex / across the edge it lies on.
+  auto best_normal = [&](const Eigen::Vector3d& n, int i) -> Eigen::Vector3d {
+    const int t = P.elem(i);
+    int kmax = 0, kmin = 0;
+    for (int k = 1; k < 3; ++k) {
+      if (P.bary(i, k) > P.bary(i, kmax)) kmax = k;
+      if (P.bary(i, k) < P.bary(i, kmin)) kmin = k;
+    }
+    int best = t;
+    auto consider = [&](int g) {
+      if (n.dot(Nt.row(g).transpose()) > n.dot(Nt.row(best).transpose())) best = g;
+    };
+    if (P.bary(i, kmax) >= 1 - kAt) {  // at a vertex: every face around it
+      const int v = Ft(t, kmax);
+      for (int q = start[v]; q < start[v + 1]; ++q) consider(around[q]);
+    } else if (P.bary(i, kmin) <= kAt) {  // on the edge opposite kmin: also the face across it
+      const int a = Ft(t, (kmin + 1) % 3), b = Ft(t, (kmin + 2) % 3);
+      for (int q = start[a]; q < start[a + 1]; ++q) {
+        const int g = around[q];
+        if (Ft(g, 0) == b || Ft(g, 1) == b || Ft(g, 2) == b) consider(g);
+      }
+    }
+    return Nt.row(best).transpose();
+  };
   for (int f = 0; f < m; ++f) {
     const Eigen::Vector3d x0 = X.row(F(f, 0)), y0 = Y.row(F(f, 0)), y1 = Y.row(F(f, 1)),
                           y2 = Y.row(F(f, 2));
@@ -94,7 +132,7 @@ FoldCounts fold_counts(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F, const
       continue;
     }
     Eigen::Vector3d nt = Eigen::Vector3d::Zero();
-    for (int j = 0; j < 3; ++j) nt += Nt.row(elem(F(f, j))).transpose();
+    for (int j = 0; j < 3; ++j) nt += best_normal(n, F(f, j));
     if (n.dot(nt) < 0) {
       ++c.flipped;
       if (faces) (*faces)[f] = 1;
@@ -118,7 +156,7 @@ SurfaceDistortion surface_distortion(const TriMesh& S, const TriMesh& T, const B
   d.area = area_distortion(X, Y, S.F);
   const double lo = std::log(opt.min_area_ratio), hi = -lo;
   // target surface normal at a mapped point: the normal of the face it lies in
-  const FoldCounts folds = fold_counts(X, S.F, Y, face_normals(Xt, T.F), P.elem, opt.degenerate_tol);
+  const FoldCounts folds = fold_counts(X, S.F, Y, face_normals(Xt, T.F), T.F, P, opt.degenerate_tol);
   d.flipped = folds.flipped;
   d.degenerate = folds.degenerate;
   for (int f = 0; f < m; ++f) {

@@ -433,13 +433,13 @@ struct DirectionLog {
   Eigen::MatrixXd keep_Y;          // in the working frame
 
   FoldCounts map_folds(const BarycentricMap& P, std::vector<unsigned char>* out) const {
-    return fold_counts(Xs, S->F, map_positions(P, Xt, Ft), Nt, P.elem,
+    return fold_counts(Xs, S->F, map_positions(P, Xt, Ft), Nt, Ft, P,
                        SurfaceDistortionOptions{}.degenerate_tol, out);
   }
   FoldCounts shell_folds(const RowMat3& Y, const BarycentricMap& P,
                          std::vector<unsigned char>* out) const {
     const Eigen::MatrixXd Yu = working_is_unit ? Eigen::MatrixXd(Y) : to_unit_target.apply(Eigen::MatrixXd(Y));
-    return fold_counts(Xs, S->F, Yu, Nt, P.elem, SurfaceDistortionOptions{}.degenerate_tol, out);
+    return fold_counts(Xs, S->F, Yu, Nt, Ft, P, SurfaceDistortionOptions{}.degenerate_tol, out);
   }
   // Faces bad now and fine at the start -> the event (iteration k, 1-based).
   void record(ElasticCollapseEvent& ev, int k, const std::vector<unsigned char>& now,

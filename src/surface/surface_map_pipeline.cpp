@@ -140,7 +140,7 @@ void run_bim(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& req, c
   if (!o.landmarks_A.empty() && o.landmarks_A.size() < 3)
     throw InputError(o.name_A + ": at least 3 landmarks are needed");
   const TriMesh &RA = run.repair_A.mesh, &RB = run.repair_B.mesh;
-  const bool prepared = o.landmarks_A.empty() && !o.reverse_candidates &&
+  const bool prepared = o.landmarks_A.empty() &&
                         prepared_fits(req.prepared_A.get(), o) && prepared_fits(req.prepared_B.get(), o);
   BIMResult r = prepared ? bim_prepared(*req.prepared_A->bim, *req.prepared_B->bim, o, progress)
                          : blended_intrinsic_maps(RA, RB, o, progress);
@@ -191,7 +191,7 @@ std::string elastic_initial_maps(const TriMesh& A, const TriMesh& B, const Surfa
     bo.landmarks_B.clear();
     bo.symmetric = true;
     run.notes.push_back("elastic: initial maps by BIM (both directions)");
-    const bool prepared = !bo.reverse_candidates && prepared_fits(req.prepared_A.get(), bo) &&
+    const bool prepared = prepared_fits(req.prepared_A.get(), bo) &&
                           prepared_fits(req.prepared_B.get(), bo);
     BIMResult r = prepared ? bim_prepared(*req.prepared_A->bim, *req.prepared_B->bim, bo, progress)
                            : blended_intrinsic_maps(RA, RB, bo, progress);

@@ -19,6 +19,9 @@ std::pair<BarycentricMap, BarycentricMap> surface_map_for_volumes(const TriMesh&
                                                                   bool elastic_refinement) {
   BIMOptions bo;
   bo.symmetric = true;
+  // Each direction's own blend, as measured for the volume maps (BIMOptions::reverse_candidates,
+  // the surface-map default since 3 Dec 2026, has not been measured on the volume benches).
+  bo.reverse_candidates = false;
   BIMResult bim = blended_intrinsic_maps(SA, SB, bo, progress);
   std::pair<BarycentricMap, BarycentricMap> maps{bim.AB.map, bim.BA.map};
   if (used) *used = "BIM";

@@ -434,7 +434,7 @@ TEST(Elastic, FoldCountsMatchSurfaceDistortion) {
   const SurfaceDistortion d = surface_distortion(pair.A, pair.B, P);
   const Eigen::MatrixXd X = unit_area_normalization(pair.A).apply(pair.A.V);
   const Eigen::MatrixXd Xt = unit_area_normalization(pair.B).apply(pair.B.V);
-  const FoldCounts c = fold_counts(X, pair.A.F, map_positions(P, Xt, pair.B.F), face_normals(Xt, pair.B.F), P.elem);
+  const FoldCounts c = fold_counts(X, pair.A.F, map_positions(P, Xt, pair.B.F), face_normals(Xt, pair.B.F), pair.B.F, P);
   EXPECT_GT(d.flipped + d.degenerate, 0);
   EXPECT_EQ(c.flipped, d.flipped);
   EXPECT_EQ(c.degenerate, d.degenerate);

@@ -45,17 +45,22 @@ Eigen::VectorXd area_distortion(const Eigen::MatrixXd& X, const Eigen::MatrixXd&
 // Flipped and collapsed triangles only, as surface_distortion counts them, in the frame given
 // (no normalization; cheap enough to run every outer iteration of the elastic refinement).
 // X n×3, F m×3: the source; Y n×3: positions of its vertices on or near the target (P X~, or
-// a deformation); Nt m~×3: unit face normals of the target; elem (n): the target face of
-// each vertex, whose normal is the target surface normal there. Collapsed: a_t <= tol a^_t;
-// flipped: not collapsed and the mapped normal opposes the sum of the corners' target
-// normals. faces (optional, m): 0 fine, 1 flipped, 2 collapsed.
+// a deformation); Nt m~×3: unit face normals of the target, Ft m~×3 its faces; P (n): the
+// point of the target at (or nearest to) each vertex. Collapsed: a_t <= tol a^_t. Flipped:
+// not collapsed and the mapped normal opposes the sum of the target normals at the corners'
+// images. The target normal at a point is that of the face P gives for an interior point; for
+// a point on an edge or at a vertex (barycentric tolerance 1e-6) it is the normal, among the
+// two faces of the edge or all faces around the vertex, that is the most aligned with the
+// mapped normal. (Issue 20: the one face P happens to give flagged triangles of the identity
+// map at creases and on thin parts, where it can face away from the triangle's own.)
+// faces (optional, m): 0 fine, 1 flipped, 2 collapsed.
 struct FoldCounts {
   int flipped = 0;
   int degenerate = 0;
   int bad() const { return flipped + degenerate; }
 };
 FoldCounts fold_counts(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F, const Eigen::MatrixXd& Y,
-                       const Eigen::MatrixXd& Nt, const Eigen::VectorXi& elem,
+                       const Eigen::MatrixXd& Nt, const Eigen::MatrixXi& Ft, const BarycentricMap& P,
                        double degenerate_tol = 1e-12, std::vector<unsigned char>* faces = nullptr);
 
 // All of the above for the map P: S -> T (P: S.num_vertices() rows onto T's faces).

@@ -54,8 +54,9 @@ struct BIMOptions {
   // With symmetric: the direction whose blend has the lower integrated confidence takes the
   // inverse of the other direction's blend instead (located by closest point on the mapped
   // surface), so the two maps agree (issue 20: on cat -> lion the lion -> cat blend is the
-  // better one; docs/methods.md).
-  bool reverse_candidates = false;
+  // better one; on the camel poses the two blends disagree on a leg; docs/methods.md). On by
+  // default since 3 Dec 2026 (surface-map --no-reverse-candidates turns it off).
+  bool reverse_candidates = true;
   // --- general
   std::uint64_t seed = 1;           // random first P_even vertex, candidate pruning
   double heat_t_factor = 1.0;       // heat method t = factor * h^2

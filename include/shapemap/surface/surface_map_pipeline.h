@@ -61,8 +61,8 @@ struct SurfaceMapRequest {
   BarycentricMap init_AB, init_BA;
   std::string init_description;  // report.json "init" for given maps ("file map_AB.txt")
   BarycentricMap truth_AB;       // optional ground truth A -> B (geodesic error in the metrics)
-  // BIM (also elastic's BIM initial maps) without landmarks and without reverse_candidates:
-  // prepared surfaces of A and B (made
+  // BIM (also elastic's BIM initial maps) without landmarks (reverse_candidates or not: the
+  // inverse is taken by bim_prepared too): prepared surfaces of A and B (made
   // with the same seed, max_features, num_even and min_vertices as `bim`) are used instead of
   // repairing and preparing again; the map is the same.
   std::shared_ptr<const PreparedSurface> prepared_A, prepared_B;
