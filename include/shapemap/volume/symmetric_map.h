@@ -59,13 +59,15 @@ struct SymmetricVolumeMapOptions {
   int min_iterations = 1;      // outer iterations before a stopping rule may apply
   // Ours (issue 19): Anderson acceleration (optim/anderson.h) of the P/X alternation of
   // stages 2 and 4 with this memory, once beta and gamma are final; each proposal is kept
-  // only if Eq. 25 after its P-step is below the last X-step's energy. 0 = off.
-  int anderson_memory = 0;
-  // Ours (issue 19): Newton X-steps on Eq. 25 with P_ij eliminated (re-solved at every
-  // trial X_ij; DirectionalEnergy::add_eliminated_p_hessian). The alternation of fixed-P
-  // steps moves X and P together by about b·a/(b + a) / b of the way per iteration (b, a
-  // the weights of E_Q and E_R: 1/11 at beta = 5, alpha = 0.5), so stage 4 crawled on real
-  // pairs. Newton solver only.
+  // only if Eq. 25 after its P-step is below the last X-step's energy. 0 = off. Default 5
+  // since the X-steps eliminate P (fewer inverted tets on all four real bench pairs but
+  // cat -> lion A -> B, docs/methods.md).
+  int anderson_memory = 5;
+  // Ours (issue 19): Newton X-steps on Eq. 25 with both P's eliminated (re-solved at every
+  // trial X; DirectionalEnergy::add_eliminated_p_hessian). The alternation of fixed-P steps
+  // moves X and P together by about a/(a + b) of the way per iteration (b, a the weights of
+  // E_Q and E_R: 1/11 at beta = 5, alpha = 0.5), so stage 4 crawled on real pairs. Newton
+  // solver only.
   bool eliminate_p = true;
   int xstep_iterations = 15;   // L-BFGS iterations per X-step (Sec. 5.2; not in the paper:
                                // 15 gave the same maps as 30 on a 30k-tet pair at half the
