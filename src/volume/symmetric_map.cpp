@@ -1352,18 +1352,17 @@ class SymmetricMapSolver {
     st.lbfgs_iterations += r1.iterations + r2.iterations;
     st.evaluations += r1.evaluations + r2.evaluations;
     grad_norm = std::sqrt(r1.grad_norm * r1.grad_norm + r2.grad_norm * r2.grad_norm);
-    // With P eliminated each f also holds the other direction's E_R at the new P: sum
-    // Eq. 25 itself.
+    // With the P's eliminated each f also holds terms of the other direction (its E_Q and
+    // E_R at the trial's P's): sum Eq. 25 itself.
     return opt_.eliminate_p && opt_.solver == XStepSolver::Newton ? energy() : r1.f + r2.f;
   }
 
   // Ours (issue 19, SymmetricVolumeMapOptions::eliminate_p): the X-step of direction
-  // `dir` on f(X_ij) = min over P_ij of Eq. 25 with X_ji and P_ji held. Each value re-runs
-  // the P-step of P_ij at the trial X_ij (its objective is every term of Eq. 25 with P_ij
-  // in it), so f is Eq. 25 of the E_Q and the other direction's E_R at their minimum; its
-  // gradient is the fixed-P one and its Hessian per vertex the Schur complement
-  // (DirectionalEnergy::add_eliminated_p_hessian). P_ij ends at its minimizer for the
-  // final X_ij, and both energies take it.
+  // `dir` on f(X_ij) = min over P_ij and P_ji of Eq. 25, X_ji held. Each value re-runs both
+  // P-steps at the trial X_ij (each one's objective is every term of Eq. 25 with its P in
+  // it); f's gradient is the fixed-P one and its Hessian takes the Schur complements
+  // (DirectionalEnergy::add_eliminated_p_hessian). The P's end at their minimizers for the
+  // final X_ij, and both energies take them.
   LbfgsResult eliminated_p_x_step(int dir, bool fix_boundary, ProjectedNewton& pn, const NewtonOptions& no,
                                   SymmetricMapStage& st) {
     DirectionalEnergy& e = dir == 0 ? e12_ : e21_;
