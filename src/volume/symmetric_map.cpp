@@ -1361,8 +1361,8 @@ class SymmetricMapSolver {
   // `dir` on f(X_ij) = min over P_ij and P_ji of Eq. 25, X_ji held. Each value re-runs both
   // P-steps at the trial X_ij (each one's objective is every term of Eq. 25 with its P in
   // it); f's gradient is the fixed-P one and its Hessian takes the Schur complements
-  // (DirectionalEnergy::add_eliminated_p_hessian). The P's end at their minimizers for the
-  // final X_ij, and both energies take them.
+  // (DirectionalEnergy::add_eliminated_p_hessian). The P's are left at the last trial's:
+  // the caller runs the P-steps at the new X's of both directions.
   LbfgsResult eliminated_p_x_step(int dir, bool fix_boundary, ProjectedNewton& pn, const NewtonOptions& no,
                                   SymmetricMapStage& st) {
     DirectionalEnergy& e = dir == 0 ? e12_ : e21_;
@@ -1398,9 +1398,7 @@ class SymmetricMapSolver {
       e.add_hessian(Y, H);
       e.add_eliminated_p_hessian(Y, P, Xji, H, keep, keep_ji);
     };
-    LbfgsResult r = newton_rows(value, hessian, pn, X, no, st.newton_seconds);
-    update_p(X);
-    return r;
+    return newton_rows(value, hessian, pn, X, no, st.newton_seconds);
   }
 
   Eigen::VectorXd pack() const {
