@@ -305,6 +305,16 @@ void add_post_repair_and_landing_options(CLI::App* app, VolumeMapArgs& a) {
                     "points just inside it (ours; 0 = off)")
       ->capture_default_str()
       ->check(CLI::Range(0, 50));
+  app->add_option("--land-untangle-rounds", a.opt.land_untangle_rounds,
+                  "Landing, last: sweeps that untangle the located map's inverted tets inside the "
+                  "target (max-min ascent of tet volumes; ours; 0 = off)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 1000));
+  app->add_option("--land-untangle-rings", a.opt.land_untangle_rings,
+                  "Landing's untangling: when it stalls, vertices this many edges from the inverted "
+                  "tets move too, raising their own tets' smallest volume (ours)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 5));
   app->add_option("--land-barrier", a.opt.land_barrier_floor,
                     "Landing: log barrier on det J below this, so that no tet positive at its start "
                     "turns over (ours; 0 = off)")

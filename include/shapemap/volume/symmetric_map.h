@@ -113,6 +113,10 @@ struct SymmetricVolumeMapOptions {
   // just inside it, with springs that stiffen each round (ours; cat -> lion A -> B: 38 rows
   // outside, whose snap turned 154 tets over; with 6 rounds 37 inverted, B -> A 0). 0 = off.
   int land_pull_rounds = 6;
+  // Last, the located map's inverted tets untangled in M_j (max-min ascent of the volumes,
+  // untangle.h), at most this many sweeps (ours). 0 = off.
+  int land_untangle_rounds = 30;
+  int land_untangle_rings = 1;  // UntangleRules::rings (0: the folded tets' vertices alone)
   bool fix_boundary_first = true;  // Algorithm 1 lines 6-10 (stage 2): boundary of X fixed,
                                    // boundary rows of P restored each iteration
   bool boundary_to_boundary = false;  // Sec. 5.2: hard constraint P in P*_ij (boundary rows
