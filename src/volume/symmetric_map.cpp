@@ -3,6 +3,7 @@
 #include "shapemap/adjacency.h"
 #include "shapemap/error.h"
 #include "shapemap/geometry/mass.h"
+#include "shapemap/geometry/tet_volume.h"
 #include "shapemap/optim/anderson.h"
 #include "shapemap/optim/lbfgs.h"
 #include "shapemap/optim/newton.h"
@@ -817,6 +818,9 @@ constexpr double kPullInset = 0.05;  // pull_inside: anchors 5% of the way to th
 // and their barrier gradients (~1e13) stalled every later Newton step.
 constexpr double kLandMinDet = 1e-3;
 constexpr double kUntangleDepth = 0.25;  // see Landing::untangle_located
+// Landing::lift_flat_tets: tets with det J in (-kFlatDet, 0] are flat, lifted to kLiftDet.
+constexpr double kFlatDet = 1e-4, kLiftDet = 1e-4;
+constexpr int kLiftRounds = 30;
 
 // A boundary vertex v whose closest point p flattens some of its tets (typically slivers with
 // four boundary corners, the other three already on one plane of dM_j): put v at p and, per
@@ -1030,6 +1034,7 @@ class Landing {
       consider(Y);
     }
     if (landed && best_count > 0 && opt_.land_untangle_rounds > 0) untangle_located(surface_rows, best_map, best, best_count);
+    if (landed && best_count > 0 && opt_.land_untangle_rounds > 0) lift_flat_tets(surface_rows, best_map, best, best_count);
     X = best;
     located = best_map;
     return landed;
@@ -1196,6 +1201,85 @@ class Landing {
     BarycentricMap m = locate_in_tets(Mj_, Y, rows);
     Eigen::MatrixXd P = map_positions(m, Mj_.V, Mj_.T);
     const int c = count_inverted(e_.arap(), P);
+    if (c < best_count) {
+      best_count = c;
+      best_map = std::move(m);
+      best = std::move(P);
+    }
+  }
+
+  // Step 6 (ours): tets left flat on a flat part of dM_j (slivers of M_i with four boundary
+  // corners, all four landed on one plane: det J ~ -1e-14) are lifted: a corner whose move
+  // into M_j along dM_j's inner normal raises the tet's volume goes in by just enough for
+  // det J = kLiftDet. That can flatten a neighbouring sliver the other way, whose own corner
+  // then goes in: the moves cascade across the flat patch (heights only grow, as the lifting
+  // of a Delaunay patch onto a paraboloid; rounds capped), and the state with the fewest
+  // inverted tets is kept. The moves are ~1e-3 of a sliver's height, far below d^.
+  void lift_flat_tets(const std::vector<int>& surface_rows, BarycentricMap& best_map, Eigen::MatrixXd& best,
+                      int& best_count) {
+    const ArapEnergy& arap = e_.arap();
+    const Eigen::MatrixXi& T = arap.tets();
+    auto vol = [&](const Eigen::MatrixXd& Y, int t) {
+      return signed_tet_volume(Y.row(T(t, 0)), Y.row(T(t, 1)), Y.row(T(t, 2)), Y.row(T(t, 3)));
+    };
+    auto rest = [&](int t) {
+      return signed_tet_volume(Mi_.V.row(T(t, 0)), Mi_.V.row(T(t, 1)), Mi_.V.row(T(t, 2)), Mi_.V.row(T(t, 3)));
+    };
+    Eigen::MatrixXd Y = best;
+    std::vector<char> moved(Y.rows(), 0);
+    int best_here = best_count;
+    Eigen::MatrixXd best_Y = Y;
+    for (int round = 0; round < kLiftRounds; ++round) {
+      std::vector<int> flat;
+      for (int t = 0; t < T.rows(); ++t) {
+        const double v = vol(Y, t), r = rest(t);
+        if (!(v > 0) && v > -kFlatDet * r) flat.push_back(t);
+      }
+      if (flat.empty()) break;
+      for (int t : flat) {
+        const double need = kLiftDet * rest(t) - vol(Y, t);
+        if (need <= 0) continue;  // lifted by an earlier move of this round
+        // The corner with the steepest rise along its inner normal.
+        static const int opp[4][3] = {{1, 3, 2}, {0, 2, 3}, {0, 3, 1}, {0, 1, 2}};
+        int best_c = -1;
+        double best_rate = 0;
+        Eigen::RowVector3d best_u;
+        for (int c = 0; c < 4; ++c) {
+          const int w = T(t, c);
+          if (!on_bd_[w]) continue;
+          const ClosestPointResult h = target_.query(Eigen::Vector3d(Y.row(w).transpose()));
+          const Eigen::MatrixXi& F = bj_.surface.F;
+          const Eigen::RowVector3d a = bj_.surface.V.row(F(h.elem, 0)), b = bj_.surface.V.row(F(h.elem, 1)),
+                                   d = bj_.surface.V.row(F(h.elem, 2));
+          const Eigen::RowVector3d u = -(b - a).cross(d - a).normalized();  // inward
+          const Eigen::RowVector3d fa = Y.row(T(t, opp[c][0])), fb = Y.row(T(t, opp[c][1])), fc = Y.row(T(t, opp[c][2]));
+          const double rate = u.dot((fb - fa).cross(fc - fa)) / 6.0;
+          if (rate > best_rate) {
+            best_rate = rate;
+            best_c = w;
+            best_u = u;
+          }
+        }
+        if (best_c < 0) continue;
+        Eigen::RowVector3d y = Y.row(best_c) + (need / best_rate) * best_u;
+        const ClosestPointResult h = locator_.locate(Eigen::Vector3d(y.transpose()));
+        if (h.sqdist > 0) continue;  // would leave M_j
+        Y.row(best_c) = y;
+        moved[best_c] = 1;
+      }
+      const int c = count_inverted(arap, Y);
+      if (c < best_here) {
+        best_here = c;
+        best_Y = Y;
+      }
+    }
+    if (best_here >= best_count) return;
+    std::vector<int> rows;  // moved rows are located where they are now
+    for (int v : surface_rows)
+      if (best_Y.row(v) == best.row(v)) rows.push_back(v);
+    BarycentricMap m = locate_in_tets(Mj_, best_Y, rows);
+    Eigen::MatrixXd P = map_positions(m, Mj_.V, Mj_.T);
+    const int c = count_inverted(arap, P);
     if (c < best_count) {
       best_count = c;
       best_map = std::move(m);
