@@ -29,10 +29,11 @@ double untangle_triangle_energy(const Eigen::Matrix3d& Y, const Eigen::Vector3d&
   const double F = J.squaredNorm();
   const double s = J.determinant();
   const double r = std::sqrt(s * s + 4 * delta * delta);
-  const double h = 0.5 * (s + r);
+  // h = (s + r) / 2, written without the cancellation of s + r when s < 0
+  const double h = s >= 0 ? 0.5 * (s + r) : 2 * delta * delta / (r - s);
   const double E = rest_area * F * (1 + 1 / (h * h));
   if (dY) {
-    const double dh = 0.5 * (1 + s / r);
+    const double dh = h / r;  // = (1 + s / r) / 2
     Eigen::Matrix2d cof;  // d det J / dJ
     cof << J(1, 1), -J(1, 0), -J(0, 1), J(0, 0);
     const Eigen::Matrix2d dJ = rest_area * ((1 + 1 / (h * h)) * 2 * J - F * 2 / (h * h * h) * dh * cof);
