@@ -74,12 +74,15 @@ struct Untangler {
   std::vector<double> edge_len;      // per source vertex: mean rest edge length around it
   BarycentricMap& P;
   Eigen::MatrixXd Y;                 // current images (unit-area target frame)
+  Eigen::MatrixXd Y0;                // the images at the start (the tether's anchors)
+  std::vector<double> tether_w;      // per source vertex: w m_v / l_v^2
   std::vector<int> scratch;
 
-  Untangler(const TriMesh& S, const TriMesh& T, BarycentricMap& map)
+  Untangler(const TriMesh& S, const TriMesh& T, BarycentricMap& map, double tether_weight)
       : Fs(S.F), Ft(T.F), Xs(unit_area_normalization(S).apply(S.V)),
         Xt(unit_area_normalization(T).apply(T.V)), Nt(face_normals(Xt, T.F)),
         inc_s(S.F, int(S.V.rows())), inc_t(T.F, int(T.V.rows())), P(map) {
+    tether = tether_weight;
     const int m = int(Fs.rows()), n = int(Xs.rows());
     Rinv.resize(m);
     rest_area.resize(m);
@@ -101,7 +104,14 @@ struct Untangler {
     }
     for (int v = 0; v < n; ++v) edge_len[v] /= std::max(1, cnt[v]);
     Y = map_positions(P, Xt, Ft);
+    Y0 = Y;
+    tether_w.assign(n, 0.0);
+    for (int t = 0; t < m; ++t)
+      for (int j = 0; j < 3; ++j) tether_w[Fs(t, j)] += rest_area(t) / 3;
+    for (int v = 0; v < n; ++v)
+      tether_w[v] = edge_len[v] > 0 ? tether * tether_w[v] / (edge_len[v] * edge_len[v]) : 0.0;
   }
+  double tether = 0;
 
   Eigen::Vector3d target_point(int f, const Eigen::Vector3d& b) const {
     return b(0) * Xt.row(Ft(f, 0)).transpose() + b(1) * Xt.row(Ft(f, 1)).transpose() +
@@ -138,6 +148,11 @@ struct Untangler {
       if (g)
         for (int j = 0; j < 3; ++j)
           if (Fs(t, j) == v) *g += dY.row(j).transpose();
+    }
+    if (tether_w[v] > 0) {
+      const Eigen::Vector3d d = (Y.row(v) - Y0.row(v)).transpose();
+      E += tether_w[v] * d.squaredNorm();
+      if (g) *g += 2 * tether_w[v] * d;
     }
     return E;
   }
@@ -249,7 +264,7 @@ UntangleResult untangle_surface_map(const TriMesh& S, const TriMesh& T, Barycent
                                     const UntangleOptions& opt) {
   const auto t_start = std::chrono::steady_clock::now();
   UntangleResult res;
-  Untangler U(S, T, P);
+  Untangler U(S, T, P, opt.tether);
   const int n = int(S.V.rows()), m = int(S.F.rows());
   std::vector<unsigned char> flags;
   auto count = [&](std::vector<unsigned char>* fl) {

@@ -35,6 +35,11 @@ struct UntangleOptions {
   int sweeps = 80;            // Gauss-Seidel sweeps over a region's free vertices per round
   double delta_start = 0.1;   // regularization of det J at the first sweep ...
   double delta_end = 1e-3;    //   ... shrunk geometrically to this at the last
+  // Tether: + tether * m_v |y_v - y_v^0|^2 / l_v^2 per free vertex (m_v its lumped rest area,
+  // l_v its mean rest edge length, y_v^0 its image at the start): keeps the images that need
+  // not move near the refined map (and the round trip with the other direction). 0 = none;
+  // 1 measured best of 0, 0.1, 1, 10 on camel-01-08 and cat-lion (docs/methods.md).
+  double tether = 1;
   double degenerate_tol = 1e-12;  // collapsed: a <= tol a^ (as surface_distortion counts)
   // Both surfaces are measured as unit-area copies (Sec. 5.2's global scale, and the frame in
   // which surface_distortion counts), so a rest triangle and its image compare at one scale.
