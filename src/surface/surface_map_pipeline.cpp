@@ -435,17 +435,18 @@ void run_elastic(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& re
   if (!r.map_AB.bary.allFinite() || !r.Y.allFinite()) throw Error("elastic: non-finite result");
   nlohmann::json untangle_json = nlohmann::json{{"enabled", req.elastic.untangle}};
   if (req.elastic.untangle) {
-    // surface/untangle.h: the folds the refinement converged with, removed on the map itself
-    auto one = [&](const TriMesh& S, const TriMesh& T, BarycentricMap& M) {
-      const UntangleResult u = untangle_surface_map(S, T, M);
+    // surface/untangle.h: the folds the refinement converged with, removed on the map itself;
+    // A -> B with the reverse map as the refinement returned it, then B -> A with the new A -> B
+    auto one = [&](const TriMesh& S, const TriMesh& T, BarycentricMap& M, const BarycentricMap* Q) {
+      const UntangleResult u = untangle_surface_map(S, T, M, UntangleOptions{}, Q);
       return nlohmann::json{{"bad_triangles_before", u.before.bad()}, {"flipped_before", u.before.flipped},
                             {"collapsed_before", u.before.degenerate}, {"bad_triangles_after", u.after.bad()},
                             {"flipped_after", u.after.flipped}, {"collapsed_after", u.after.degenerate},
                             {"regions", u.regions}, {"regions_kept", u.regions_kept},
                             {"vertices_moved", u.vertices_moved}, {"seconds", u.seconds}};
     };
-    untangle_json["AB"] = one(RA, RB, r.map_AB);
-    if (bij) untangle_json["BA"] = one(RB, RA, r.map_BA);
+    untangle_json["AB"] = one(RA, RB, r.map_AB, bij ? &r.map_BA : nullptr);
+    if (bij) untangle_json["BA"] = one(RB, RA, r.map_BA, &r.map_AB);
   }
   run.AB_repaired = r.map_AB;
   if (bij) run.BA_repaired = r.map_BA;

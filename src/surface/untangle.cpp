@@ -47,6 +47,27 @@ double untangle_triangle_energy(const Eigen::Matrix3d& Y, const Eigen::Vector3d&
   return E;
 }
 
+double untangle_reversibility_energy(const Eigen::Vector3d& y, const Eigen::Matrix3d& C,
+                                     const Eigen::Matrix3d& Qc, const Eigen::Vector3d& x, double w,
+                                     Eigen::Vector3d* g) {
+  // b_j(y) = (n x (c_{j+2} - c_{j+1})) . (y - c_{j+1}) / |n|^2, n = (c1 - c0) x (c2 - c0): the
+  // barycentric coordinates of y's projection onto the face's plane (linear in y)
+  const Eigen::Vector3d c[3] = {C.row(0).transpose(), C.row(1).transpose(), C.row(2).transpose()};
+  const Eigen::Vector3d n = (c[1] - c[0]).cross(c[2] - c[0]);
+  const double a2 = n.squaredNorm();
+  if (g) g->setZero();
+  if (!(a2 > 0)) return 0;
+  Eigen::Vector3d q = Eigen::Vector3d::Zero(), db[3];
+  for (int j = 0; j < 3; ++j) {
+    db[j] = n.cross(c[(j + 2) % 3] - c[(j + 1) % 3]) / a2;
+    q += db[j].dot(y - c[(j + 1) % 3]) * Qc.row(j).transpose();
+  }
+  const Eigen::Vector3d r = q - x;
+  if (g)
+    for (int j = 0; j < 3; ++j) *g += 2 * w * r.dot(Qc.row(j).transpose()) * db[j];
+  return w * r.squaredNorm();
+}
+
 namespace {
 
 // Vertex -> incident faces (CSR).
@@ -76,6 +97,7 @@ struct Untangler {
   Eigen::MatrixXd Y;                 // current images (unit-area target frame)
   Eigen::MatrixXd Y0;                // the images at the start (the tether's anchors)
   std::vector<double> tether_w;      // per source vertex: w m_v / l_v^2
+  std::vector<double> base_w;        // per source vertex: m_v / l_v^2
   std::vector<int> scratch;
 
   Untangler(const TriMesh& S, const TriMesh& T, BarycentricMap& map, double tether_weight)
@@ -105,13 +127,23 @@ struct Untangler {
     for (int v = 0; v < n; ++v) edge_len[v] /= std::max(1, cnt[v]);
     Y = map_positions(P, Xt, Ft);
     Y0 = Y;
-    tether_w.assign(n, 0.0);
+    base_w.assign(n, 0.0);
     for (int t = 0; t < m; ++t)
-      for (int j = 0; j < 3; ++j) tether_w[Fs(t, j)] += rest_area(t) / 3;
-    for (int v = 0; v < n; ++v)
-      tether_w[v] = edge_len[v] > 0 ? tether * tether_w[v] / (edge_len[v] * edge_len[v]) : 0.0;
+      for (int j = 0; j < 3; ++j) base_w[Fs(t, j)] += rest_area(t) / 3;
+    for (int v = 0; v < n; ++v) base_w[v] = edge_len[v] > 0 ? base_w[v] / (edge_len[v] * edge_len[v]) : 0.0;
+    tether_w.resize(n);
+    for (int v = 0; v < n; ++v) tether_w[v] = tether * base_w[v];
   }
   double tether = 0;
+  // reversibility term (opt.reverse_weight, with the reverse map Q): Qpos = Q X (n~×3, the
+  // images of the target's vertices on the source, unit-area frame), rev_w[v] = w m_v / l_v^2
+  Eigen::MatrixXd Qpos;
+  std::vector<double> rev_w;
+  void set_reverse(const BarycentricMap& Q, double w) {
+    Qpos = map_positions(Q, Xs, Fs);
+    rev_w.assign(tether_w.size(), 0.0);
+    for (size_t v = 0; v < rev_w.size(); ++v) rev_w[v] = w * base_w[v];
+  }
 
   Eigen::Vector3d target_point(int f, const Eigen::Vector3d& b) const {
     return b(0) * Xt.row(Ft(f, 0)).transpose() + b(1) * Xt.row(Ft(f, 1)).transpose() +
@@ -153,6 +185,18 @@ struct Untangler {
       const Eigen::Vector3d d = (Y.row(v) - Y0.row(v)).transpose();
       E += tether_w[v] * d.squaredNorm();
       if (g) *g += 2 * tether_w[v] * d;
+    }
+    if (!rev_w.empty() && rev_w[v] > 0) {
+      const int f = P.elem(v);
+      Eigen::Matrix3d C, Qc;
+      for (int j = 0; j < 3; ++j) {
+        C.row(j) = Xt.row(Ft(f, j));
+        Qc.row(j) = Qpos.row(Ft(f, j));
+      }
+      Eigen::Vector3d gr;
+      E += untangle_reversibility_energy(Y.row(v).transpose(), C, Qc, Xs.row(v).transpose(), rev_w[v],
+                                         g ? &gr : nullptr);
+      if (g) *g += gr;
     }
     return E;
   }
@@ -261,10 +305,11 @@ struct Untangler {
 }  // namespace
 
 UntangleResult untangle_surface_map(const TriMesh& S, const TriMesh& T, BarycentricMap& P,
-                                    const UntangleOptions& opt) {
+                                    const UntangleOptions& opt, const BarycentricMap* Q) {
   const auto t_start = std::chrono::steady_clock::now();
   UntangleResult res;
   Untangler U(S, T, P, opt.tether);
+  if (Q && Q->size() == T.V.rows() && opt.reverse_weight > 0) U.set_reverse(*Q, opt.reverse_weight);
   const int n = int(S.V.rows()), m = int(S.F.rows());
   std::vector<unsigned char> flags;
   auto count = [&](std::vector<unsigned char>* fl) {

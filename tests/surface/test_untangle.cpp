@@ -67,6 +67,43 @@ TEST(Untangle, TriangleEnergyGradientMatchesFiniteDifferences) {
   EXPECT_EQ(checked, 80);
 }
 
+// d/dy of the reversibility term against central differences, and its value: zero where the
+// reverse map sends y back to x.
+TEST(Untangle, ReversibilityTermGradientMatchesFiniteDifferences) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int trial = 0; trial < 20; ++trial) {
+    Eigen::Matrix3d C, Qc;
+    for (int j = 0; j < 3; ++j) {
+      C.row(j) << u(rng), u(rng), u(rng);
+      Qc.row(j) << u(rng), u(rng), u(rng);
+    }
+    const Eigen::Vector3d y(u(rng), u(rng), u(rng)), x(u(rng), u(rng), u(rng));
+    Eigen::Vector3d g;
+    const double w = 0.5 + trial;
+    untangle_reversibility_energy(y, C, Qc, x, w, &g);
+    double max_err = 0;
+    const double h = 1e-6;
+    for (int k = 0; k < 3; ++k) {
+      Eigen::Vector3d yp = y, ym = y;
+      yp(k) += h;
+      ym(k) -= h;
+      const double fd = (untangle_reversibility_energy(yp, C, Qc, x, w) -
+                         untangle_reversibility_energy(ym, C, Qc, x, w)) / (2 * h);
+      max_err = std::max(max_err, std::abs(fd - g(k)));
+    }
+    EXPECT_LT(max_err, 1e-6 * std::max(1.0, g.cwiseAbs().maxCoeff())) << "trial " << trial;
+  }
+  // y at barycentric (0.2, 0.3, 0.5) of the face, lifted off its plane: Q(y) = that blend of Qc
+  Eigen::Matrix3d C, Qc;
+  C << 0, 0, 0, 1, 0, 0, 0, 1, 0;
+  Qc << 1, 2, 3, 4, 5, 6, 7, 8, 10;
+  const Eigen::Vector3d y(0.3, 0.5, 0.7);
+  const Eigen::Vector3d q = 0.2 * Qc.row(0).transpose() + 0.3 * Qc.row(1).transpose() + 0.5 * Qc.row(2).transpose();
+  EXPECT_NEAR(untangle_reversibility_energy(y, C, Qc, q, 3.0), 0.0, 1e-24);
+  EXPECT_NEAR(untangle_reversibility_energy(y, C, Qc, q + Eigen::Vector3d(0, 0, 2), 3.0), 12.0, 1e-12);
+}
+
 // The energy is the symmetric Dirichlet energy: 4 a at a rotation (small delta), more for a
 // stretch, far more once the triangle is turned over.
 TEST(Untangle, TriangleEnergyIsSymmetricDirichletWithABarrier) {
@@ -121,7 +158,7 @@ TEST(Untangle, InjectedFoldsOnAGeneratedPairComeOutFoldFree) {
   ASSERT_GT(far, n / 5);
   const int bad0 = bad(A, B, P);
   ASSERT_GE(bad0, 2 * injected);
-  const UntangleResult r = untangle_surface_map(A, B, P);
+  const UntangleResult r = untangle_surface_map(A, B, P, UntangleOptions{}, &pair.truth_BA);
   EXPECT_EQ(r.before.bad(), bad0);
   EXPECT_EQ(r.after.bad(), 0);
   EXPECT_EQ(bad(A, B, P), 0);

@@ -40,6 +40,9 @@ struct UntangleOptions {
   // not move near the refined map (and the round trip with the other direction). 0 = none;
   // 1 measured best of 0, 0.1, 1, 10 on camel-01-08 and cat-lion (docs/methods.md).
   double tether = 1;
+  // Reversibility (given the reverse map Q): + reverse_weight * m_v |Q(y_v) - x_v|^2 / l_v^2 per
+  // free vertex, Q(y) interpolated linearly over y's face (the round trip P then Q, Sec. 3.2).
+  double reverse_weight = 10;
   double degenerate_tol = 1e-12;  // collapsed: a <= tol a^ (as surface_distortion counts)
   // Both surfaces are measured as unit-area copies (Sec. 5.2's global scale, and the frame in
   // which surface_distortion counts), so a rest triangle and its image compare at one scale.
@@ -54,8 +57,9 @@ struct UntangleResult {
 };
 
 // S: source (n vertices), T: target; P: n rows onto T's faces, changed in place.
+// Q (optional): the reverse map T -> S (T's vertices onto S's faces), for the reversibility term.
 UntangleResult untangle_surface_map(const TriMesh& S, const TriMesh& T, BarycentricMap& P,
-                                    const UntangleOptions& opt = {});
+                                    const UntangleOptions& opt = {}, const BarycentricMap* Q = nullptr);
 
 // The energy E_t above of one mapped triangle and its gradient, in the frame given:
 // Y: 3×3, row j = the image of corner j (R^3); n: unit normal of the tangent plane the
@@ -65,5 +69,13 @@ UntangleResult untangle_surface_map(const TriMesh& S, const TriMesh& T, Barycent
 double untangle_triangle_energy(const Eigen::Matrix3d& Y, const Eigen::Vector3d& n,
                                 const Eigen::Matrix2d& Rinv, double rest_area, double delta,
                                 Eigen::Matrix3d* dY = nullptr);
+
+// The reversibility term of one free vertex: w |Q(y) - x|^2, Q(y) = sum_j b_j(y) Qc.row(j) with
+// b(y) the barycentric coordinates of y (projected onto the plane of the face with corners
+// C.row(0..2)), Qc.row(j) the reverse map's image of corner j, x the vertex on the source.
+// g (optional): d/dy.
+double untangle_reversibility_energy(const Eigen::Vector3d& y, const Eigen::Matrix3d& C,
+                                     const Eigen::Matrix3d& Qc, const Eigen::Vector3d& x, double w,
+                                     Eigen::Vector3d* g = nullptr);
 
 }  // namespace shapemap
