@@ -15,8 +15,10 @@
 // of mesh untangling (Escobar et al. 2003, "Simultaneous untangling and smoothing of
 // tetrahedral meshes"): a turned-over triangle (det J < 0) costs about |J|^2 det^2 / delta^4,
 // so minimizing E turns it back; delta shrinks over the sweeps to 1e-3 where E is the
-// symmetric Dirichlet energy with its barrier at det J = 0. The vertices outside the regions
-// stay where they are. A region's new images are kept only when the flipped + collapsed count
+// symmetric Dirichlet energy with its barrier at det J = 0. Two quadratic terms per free
+// vertex keep the images near where they were and consistent with the other direction: a
+// tether to the refined image and, given the reverse map Q, the round trip |Q(y_v) - x_v|^2
+// (Sec. 3.2's reversibility). The vertices outside the regions stay where they are. A region's new images are kept only when the flipped + collapsed count
 // of eval/surface_distortion.h (fold_counts) over its triangles falls, so the stage never adds
 // a fold; regions still bad are retried with twice as many rings.
 #pragma once
