@@ -44,6 +44,12 @@ void add_elastic_options(CLI::App* app, ElasticSettings& o, std::string& truth_a
                 "elastic: return the last iterate even when it has more flipped or collapsed "
                 "triangles than the initial map (default: the collapse guard keeps the latest "
                 "iterate that has no more, or the initial map; report.json: elastic.guard)");
+  app->add_flag("--elastic-no-untangle", [&o](std::int64_t) { o.untangle = false; },
+                "elastic: return the refined maps as they are (default: a final stage slides the "
+                "images around flipped or collapsed triangles on the target, minimizing a "
+                "symmetric Dirichlet energy with a barrier on the mapped triangles' signed "
+                "area, and keeps a region's change only where the fold count falls; "
+                "docs/methods.md)");
   app->add_option("--elastic-inner-iterations", o.inner_iterations,
                   "elastic: at most this many L-BFGS iterations per Y step (Sec. 5.1: 50)")
       ->check(non_negative());

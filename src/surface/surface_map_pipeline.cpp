@@ -6,6 +6,7 @@
 #include "shapemap/eval/surface_metrics.h"
 #include "shapemap/geometry/closest_point.h"
 #include "shapemap/surface/elastic.h"
+#include "shapemap/surface/untangle.h"
 #include <algorithm>
 #include <chrono>
 
@@ -430,8 +431,23 @@ void run_elastic(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& re
   std::string eta_choice;
   ElasticOptions eo = elastic_options(req.elastic, RA, RB, initAB, initBA, q_given, eta_choice);
   eo.progress = progress;
-  const ElasticResult r = elastic_correspondence(RA, RB, initAB, initBA, eo);
+  ElasticResult r = elastic_correspondence(RA, RB, initAB, initBA, eo);
   if (!r.map_AB.bary.allFinite() || !r.Y.allFinite()) throw Error("elastic: non-finite result");
+  nlohmann::json untangle_json = nlohmann::json{{"enabled", req.elastic.untangle}};
+  if (req.elastic.untangle) {
+    // surface/untangle.h: the folds the refinement converged with, removed on the map itself;
+    // A -> B with the reverse map as the refinement returned it, then B -> A with the new A -> B
+    auto one = [&](const TriMesh& S, const TriMesh& T, BarycentricMap& M, const BarycentricMap* Q) {
+      const UntangleResult u = untangle_surface_map(S, T, M, UntangleOptions{}, Q);
+      return nlohmann::json{{"bad_triangles_before", u.before.bad()}, {"flipped_before", u.before.flipped},
+                            {"collapsed_before", u.before.degenerate}, {"bad_triangles_after", u.after.bad()},
+                            {"flipped_after", u.after.flipped}, {"collapsed_after", u.after.degenerate},
+                            {"regions", u.regions}, {"regions_kept", u.regions_kept},
+                            {"vertices_moved", u.vertices_moved}, {"seconds", u.seconds}};
+    };
+    untangle_json["AB"] = one(RA, RB, r.map_AB, bij ? &r.map_BA : nullptr);
+    if (bij) untangle_json["BA"] = one(RB, RA, r.map_BA, &r.map_AB);
+  }
   run.AB_repaired = r.map_AB;
   if (bij) run.BA_repaired = r.map_BA;
   run.report["method"] = "elastic";
@@ -439,6 +455,7 @@ void run_elastic(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& re
   run.report["parameters"] = elastic_parameters_json(eo, eta_choice);
   run.report["energies"] = elastic_energies_json(r);
   run.report["elastic"] = elastic_section_json(r, eo, bij);
+  run.report["elastic"]["untangle"] = untangle_json;
   elastic_metrics(RA, RB, initAB, initBA, r, bij, truth, run);
   guard_warnings(r, bij, run);
   run.summary = "elastic: " + std::to_string(r.outer_iterations) + " outer iterations";

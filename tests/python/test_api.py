@@ -185,3 +185,19 @@ def test_prepared_surfaces_elastic_same_map(surfaces):
     a = shapemap.surface_map(VA, FA, VB, FB, method="elastic", elastic_iterations=3, **FAST_BIM)
     b = shapemap.surface_map(VA, FA, VB, FB, method="elastic", elastic_iterations=3, prepared=prepared, **FAST_BIM)
     assert np.array_equal(a.element, b.element) and np.array_equal(a.bary, b.bary)
+
+
+def test_elastic_untangle_option(surfaces):
+    """elastic_untangle=False is `--elastic-no-untangle`: the report says so; with the stage
+    the returned maps have no more flipped or collapsed triangles than without it."""
+    (VA, FA), (VB, FB) = surfaces
+    on = shapemap.surface_map(VA, FA, VB, FB, method="elastic", elastic_iterations=3, **FAST_BIM)
+    off = shapemap.surface_map(VA, FA, VB, FB, method="elastic", elastic_iterations=3, elastic_untangle=False,
+                               **FAST_BIM)
+    assert on.report["elastic"]["untangle"]["enabled"] is True
+    assert off.report["elastic"]["untangle"] == {"enabled": False}
+    for d in ("AB", "BA"):
+        u = on.report["elastic"]["untangle"][d]
+        m = off.report["metrics"]["final"][d]
+        assert u["bad_triangles_before"] == m["flipped_triangles"] + m["degenerate_triangles"]
+        assert u["bad_triangles_after"] <= u["bad_triangles_before"]

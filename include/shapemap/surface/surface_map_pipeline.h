@@ -34,6 +34,9 @@ struct ElasticSettings {
   int inner_iterations = -1;      // ElasticOptions::inner_max_iterations (default 50)
   double inner_f_tol = -1;        // ElasticOptions::inner_f_tol (default 1e-9)
   double ramp_inner_f_tol = -1;   // ElasticOptions::inner_f_tol_ramp (default 0 = inner_f_tol)
+  // Untangle the returned maps (surface/untangle.h): the images around flipped or collapsed
+  // triangles slide on the target; kept per region only where the fold count falls.
+  bool untangle = true;
 };
 
 // A surface after its input repairs, with BIM's per-surface stage (bim_prepare: geodesics,

@@ -1,0 +1,419 @@
+// Untangling a surface map on its target: see untangle.h and docs/methods.md.
+#include "shapemap/surface/untangle.h"
+
+#include "shapemap/geometry/closest_point.h"
+#include <chrono>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+namespace shapemap {
+
+double untangle_triangle_energy(const Eigen::Matrix3d& Y, const Eigen::Vector3d& n,
+                                const Eigen::Matrix2d& Rinv, double rest_area, double delta,
+                                Eigen::Matrix3d* dY) {
+  // orthonormal tangent basis (b1, b2) of n; E does not depend on its rotation in the plane
+  const Eigen::Vector3d a = std::abs(n(0)) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+  const Eigen::Vector3d b1 = n.cross(a).normalized();
+  const Eigen::Vector3d b2 = n.cross(b1);
+  Eigen::Matrix2d D;  // columns: the image edges y1 - y0, y2 - y0 in (b1, b2)
+  for (int k = 0; k < 2; ++k) {
+    const Eigen::Vector3d e = (Y.row(k + 1) - Y.row(0)).transpose();
+    D(0, k) = b1.dot(e);
+    D(1, k) = b2.dot(e);
+  }
+  const Eigen::Matrix2d J = D * Rinv;
+  const double F = J.squaredNorm();
+  const double s = J.determinant();
+  const double r = std::sqrt(s * s + 4 * delta * delta);
+  // h = (s + r) / 2, written without the cancellation of s + r when s < 0
+  const double h = s >= 0 ? 0.5 * (s + r) : 2 * delta * delta / (r - s);
+  const double E = rest_area * F * (1 + 1 / (h * h));
+  if (dY) {
+    const double dh = h / r;  // = (1 + s / r) / 2
+    Eigen::Matrix2d cof;  // d det J / dJ
+    cof << J(1, 1), -J(1, 0), -J(0, 1), J(0, 0);
+    const Eigen::Matrix2d dJ = rest_area * ((1 + 1 / (h * h)) * 2 * J - F * 2 / (h * h * h) * dh * cof);
+    const Eigen::Matrix2d dD = dJ * Rinv.transpose();
+    for (int k = 0; k < 2; ++k) {
+      const Eigen::Vector3d g = dD(0, k) * b1 + dD(1, k) * b2;
+      dY->row(k + 1) = g.transpose();
+    }
+    dY->row(0) = -(dY->row(1) + dY->row(2));
+  }
+  return E;
+}
+
+double untangle_reversibility_energy(const Eigen::Vector3d& y, const Eigen::Matrix3d& C,
+                                     const Eigen::Matrix3d& Qc, const Eigen::Vector3d& x, double w,
+                                     Eigen::Vector3d* g) {
+  // b_j(y) = (n x (c_{j+2} - c_{j+1})) . (y - c_{j+1}) / |n|^2, n = (c1 - c0) x (c2 - c0): the
+  // barycentric coordinates of y's projection onto the face's plane (linear in y)
+  const Eigen::Vector3d c[3] = {C.row(0).transpose(), C.row(1).transpose(), C.row(2).transpose()};
+  const Eigen::Vector3d n = (c[1] - c[0]).cross(c[2] - c[0]);
+  const double a2 = n.squaredNorm();
+  if (g) g->setZero();
+  if (!(a2 > 0)) return 0;
+  Eigen::Vector3d q = Eigen::Vector3d::Zero(), db[3];
+  for (int j = 0; j < 3; ++j) {
+    db[j] = n.cross(c[(j + 2) % 3] - c[(j + 1) % 3]) / a2;
+    q += db[j].dot(y - c[(j + 1) % 3]) * Qc.row(j).transpose();
+  }
+  const Eigen::Vector3d r = q - x;
+  if (g)
+    for (int j = 0; j < 3; ++j) *g += 2 * w * r.dot(Qc.row(j).transpose()) * db[j];
+  return w * r.squaredNorm();
+}
+
+namespace {
+
+// Vertex -> incident faces (CSR).
+struct Incidence {
+  std::vector<int> start, faces;
+  Incidence(const Eigen::MatrixXi& F, int n) : start(n + 1, 0) {
+    for (int t = 0; t < F.rows(); ++t)
+      for (int j = 0; j < 3; ++j) ++start[F(t, j) + 1];
+    for (int v = 0; v < n; ++v) start[v + 1] += start[v];
+    faces.resize(start[n]);
+    std::vector<int> fill(start.begin(), start.end() - 1);
+    for (int t = 0; t < F.rows(); ++t)
+      for (int j = 0; j < 3; ++j) faces[fill[F(t, j)]++] = t;
+  }
+  int begin(int v) const { return start[v]; }
+  int end(int v) const { return start[v + 1]; }
+};
+
+struct Untangler {
+  const Eigen::MatrixXi &Fs, &Ft;
+  Eigen::MatrixXd Xs, Xt, Nt;        // unit-area copies; target unit face normals
+  Incidence inc_s, inc_t;
+  std::vector<Eigen::Matrix2d> Rinv; // per source face
+  Eigen::VectorXd rest_area;
+  std::vector<double> edge_len;      // per source vertex: mean rest edge length around it
+  BarycentricMap& P;
+  Eigen::MatrixXd Y;                 // current images (unit-area target frame)
+  Eigen::MatrixXd Y0;                // the images at the start (the tether's anchors)
+  std::vector<double> tether_w;      // per source vertex: w m_v / l_v^2
+  std::vector<double> base_w;        // per source vertex: m_v / l_v^2
+  std::vector<int> scratch;
+
+  Untangler(const TriMesh& S, const TriMesh& T, BarycentricMap& map, double tether_weight)
+      : Fs(S.F), Ft(T.F), Xs(unit_area_normalization(S).apply(S.V)),
+        Xt(unit_area_normalization(T).apply(T.V)), Nt(face_normals(Xt, T.F)),
+        inc_s(S.F, int(S.V.rows())), inc_t(T.F, int(T.V.rows())), P(map) {
+    tether = tether_weight;
+    const int m = int(Fs.rows()), n = int(Xs.rows());
+    Rinv.resize(m);
+    rest_area.resize(m);
+    edge_len.assign(n, 0.0);
+    std::vector<int> cnt(n, 0);
+    for (int t = 0; t < m; ++t) {
+      const Eigen::Vector3d x0 = Xs.row(Fs(t, 0)), e1 = Eigen::Vector3d(Xs.row(Fs(t, 1))) - x0,
+                            e2 = Eigen::Vector3d(Xs.row(Fs(t, 2))) - x0;
+      const double l1 = e1.norm(), a2 = e1.cross(e2).norm();
+      rest_area(t) = 0.5 * a2;
+      Eigen::Matrix2d R;
+      R << l1, e1.dot(e2) / std::max(l1, 1e-300), 0, a2 / std::max(l1, 1e-300);
+      Rinv[t] = a2 > 0 ? Eigen::Matrix2d(R.inverse()) : Eigen::Matrix2d::Zero();
+      for (int j = 0; j < 3; ++j) {
+        const int v = Fs(t, j);
+        edge_len[v] += (Xs.row(Fs(t, (j + 1) % 3)) - Xs.row(v)).norm();
+        ++cnt[v];
+      }
+    }
+    for (int v = 0; v < n; ++v) edge_len[v] /= std::max(1, cnt[v]);
+    Y = map_positions(P, Xt, Ft);
+    Y0 = Y;
+    base_w.assign(n, 0.0);
+    for (int t = 0; t < m; ++t)
+      for (int j = 0; j < 3; ++j) base_w[Fs(t, j)] += rest_area(t) / 3;
+    for (int v = 0; v < n; ++v) base_w[v] = edge_len[v] > 0 ? base_w[v] / (edge_len[v] * edge_len[v]) : 0.0;
+    tether_w.resize(n);
+    for (int v = 0; v < n; ++v) tether_w[v] = tether * base_w[v];
+  }
+  double tether = 0;
+  // reversibility term (opt.reverse_weight, with the reverse map Q): Qpos = Q X (n~×3, the
+  // images of the target's vertices on the source, unit-area frame), rev_w[v] = w m_v / l_v^2
+  Eigen::MatrixXd Qpos;
+  std::vector<double> rev_w;
+  void set_reverse(const BarycentricMap& Q, double w) {
+    Qpos = map_positions(Q, Xs, Fs);
+    rev_w.assign(tether_w.size(), 0.0);
+    for (size_t v = 0; v < rev_w.size(); ++v) rev_w[v] = w * base_w[v];
+  }
+
+  Eigen::Vector3d target_point(int f, const Eigen::Vector3d& b) const {
+    return b(0) * Xt.row(Ft(f, 0)).transpose() + b(1) * Xt.row(Ft(f, 1)).transpose() +
+           b(2) * Xt.row(Ft(f, 2)).transpose();
+  }
+
+  // The tangent plane a mapped source triangle is measured in: the sum of the target normals at
+  // its corners' images.
+  Eigen::Vector3d frame_normal(int t) const {
+    Eigen::Vector3d n = Eigen::Vector3d::Zero();
+    for (int j = 0; j < 3; ++j) n += Nt.row(P.elem(Fs(t, j))).transpose();
+    const double l = n.norm();
+    return l > 1e-8 ? Eigen::Vector3d(n / l) : Eigen::Vector3d(Nt.row(P.elem(Fs(t, 0))).transpose());
+  }
+
+  double face_energy(int t, double delta, Eigen::Matrix3d* dY) const {
+    if (!(rest_area(t) > 0)) {
+      if (dY) dY->setZero();
+      return 0;
+    }
+    Eigen::Matrix3d Yt;
+    for (int j = 0; j < 3; ++j) Yt.row(j) = Y.row(Fs(t, j));
+    return untangle_triangle_energy(Yt, frame_normal(t), Rinv[t], rest_area(t), delta, dY);
+  }
+
+  // Sum of the energies of the faces around v; g (optional): d/dy_v.
+  double vertex_energy(int v, double delta, Eigen::Vector3d* g) const {
+    double E = 0;
+    if (g) g->setZero();
+    Eigen::Matrix3d dY;
+    for (int q = inc_s.begin(v); q < inc_s.end(v); ++q) {
+      const int t = inc_s.faces[q];
+      E += face_energy(t, delta, g ? &dY : nullptr);
+      if (g)
+        for (int j = 0; j < 3; ++j)
+          if (Fs(t, j) == v) *g += dY.row(j).transpose();
+    }
+    if (tether_w[v] > 0) {
+      const Eigen::Vector3d d = (Y.row(v) - Y0.row(v)).transpose();
+      E += tether_w[v] * d.squaredNorm();
+      if (g) *g += 2 * tether_w[v] * d;
+    }
+    if (!rev_w.empty() && rev_w[v] > 0) {
+      const int f = P.elem(v);
+      Eigen::Matrix3d C, Qc;
+      for (int j = 0; j < 3; ++j) {
+        C.row(j) = Xt.row(Ft(f, j));
+        Qc.row(j) = Qpos.row(Ft(f, j));
+      }
+      Eigen::Vector3d gr;
+      E += untangle_reversibility_energy(Y.row(v).transpose(), C, Qc, Xs.row(v).transpose(), rev_w[v],
+                                         g ? &gr : nullptr);
+      if (g) *g += gr;
+    }
+    return E;
+  }
+
+  // The closest point to x on the target near face f: the closest among the faces within two
+  // vertex rings of f, repeated from the face found until it stays (a walk; at most 8 steps).
+  // Local, so that an image never jumps to another part of the target that passes close by
+  // (a neighbouring leg).
+  ClosestPointResult project_near(int f, const Eigen::Vector3d& x) {
+    ClosestPointResult best;
+    for (int step = 0; step < 8; ++step) {
+      scratch.clear();
+      for (int j = 0; j < 3; ++j)
+        for (int q = inc_t.begin(Ft(f, j)); q < inc_t.end(Ft(f, j)); ++q) {
+          const int g = inc_t.faces[q];
+          for (int k = 0; k < 3; ++k)
+              for (int r = inc_t.begin(Ft(g, k)); r < inc_t.end(Ft(g, k)); ++r) scratch.push_back(inc_t.faces[r]);
+        }
+      std::sort(scratch.begin(), scratch.end());
+      scratch.erase(std::unique(scratch.begin(), scratch.end()), scratch.end());
+      best.sqdist = std::numeric_limits<double>::infinity();
+      for (int g : scratch) {
+        const Eigen::Vector3d c[3] = {Xt.row(Ft(g, 0)).transpose(), Xt.row(Ft(g, 1)).transpose(),
+                                      Xt.row(Ft(g, 2)).transpose()};
+        ClosestPointResult r = closest_point_on_simplex<3>(x, c, 3);
+        if (r.sqdist < best.sqdist) {
+          best = r;
+          best.elem = g;
+        }
+      }
+      if (best.elem == f) break;
+      f = best.elem;
+    }
+    return best;
+  }
+
+  void set_image(int v, int f, const Eigen::Vector3d& b) {
+    P.elem(v) = f;
+    P.bary.row(v) = b.transpose();
+    Y.row(v) = target_point(f, b).transpose();
+  }
+
+  // Move v's image to the average of its neighbours' images (projected near its face): a
+  // Gauss-Seidel sweep of Tutte's embedding, which spreads images that coincide (collapsed
+  // triangles, where every rotation-invariant energy of J is stationary).
+  void average_vertex(int v) {
+    Eigen::Vector3d x = Eigen::Vector3d::Zero();
+    int k = 0;
+    for (int q = inc_s.begin(v); q < inc_s.end(v); ++q)
+      for (int j = 0; j < 3; ++j)
+        if (Fs(inc_s.faces[q], j) != v) {
+          x += Y.row(Fs(inc_s.faces[q], j)).transpose();
+          ++k;
+        }
+    if (k == 0) return;
+    const ClosestPointResult r = project_near(P.elem(v), x / k);
+    set_image(v, r.elem, r.bary.head<3>());
+  }
+
+  // One damped Newton step of v's image in the tangent plane of its face (2×2 Hessian by
+  // differences of the gradient), projected back onto the target near the current face; kept
+  // only if the energy around v falls. Returns whether the image moved.
+  bool relax_vertex(int v, double delta) {
+    const int f0 = P.elem(v);
+    const Eigen::Vector3d b0 = P.bary.row(v).transpose();
+    const Eigen::Vector3d p0 = Y.row(v).transpose();
+    const Eigen::Vector3d nv = Nt.row(f0).transpose();
+    const Eigen::Vector3d a = std::abs(nv(0)) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+    const Eigen::Vector3d t1 = nv.cross(a).normalized(), t2 = nv.cross(t1);
+    Eigen::Vector3d g;
+    const double E0 = vertex_energy(v, delta, &g);
+    const Eigen::Vector2d g2(t1.dot(g), t2.dot(g));
+    if (!(g2.norm() > 0)) return false;
+    const double L = edge_len[v];
+    const double hstep = 1e-5 * L;
+    Eigen::Matrix2d H;
+    for (int k = 0; k < 2; ++k) {
+      const Eigen::Vector3d tk = k == 0 ? t1 : t2;
+      Y.row(v) = (p0 + hstep * tk).transpose();
+      Eigen::Vector3d gk;
+      vertex_energy(v, delta, &gk);
+      H(0, k) = (t1.dot(gk) - g2(0)) / hstep;
+      H(1, k) = (t2.dot(gk) - g2(1)) / hstep;
+    }
+    Y.row(v) = p0.transpose();
+    H = 0.5 * (H + H.transpose()).eval();
+    Eigen::Vector2d d;
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(H);
+    if (es.eigenvalues()(0) > 1e-12 * std::max(1.0, es.eigenvalues()(1))) d = -es.eigenvectors() *
+        (es.eigenvectors().transpose() * g2).cwiseQuotient(es.eigenvalues());
+    else d = -g2 / g2.norm() * 0.25 * L;
+    const double cap = 0.5 * L;
+    if (d.norm() > cap) d *= cap / d.norm();
+    for (int k = 0; k < 12; ++k, d *= 0.5) {
+      const Eigen::Vector3d x = p0 + d(0) * t1 + d(1) * t2;
+      const ClosestPointResult r = project_near(f0, x);
+      set_image(v, r.elem, r.bary.head<3>());
+      const double E1 = vertex_energy(v, delta, nullptr);
+      if (E1 < E0 - 1e-14 * std::abs(E0)) return true;
+    }
+    set_image(v, f0, b0);
+    return false;
+  }
+};
+
+}  // namespace
+
+UntangleResult untangle_surface_map(const TriMesh& S, const TriMesh& T, BarycentricMap& P,
+                                    const UntangleOptions& opt, const BarycentricMap* Q) {
+  const auto t_start = std::chrono::steady_clock::now();
+  UntangleResult res;
+  Untangler U(S, T, P, opt.tether);
+  if (Q && Q->size() == T.V.rows() && opt.reverse_weight > 0) U.set_reverse(*Q, opt.reverse_weight);
+  const int n = int(S.V.rows()), m = int(S.F.rows());
+  std::vector<unsigned char> flags;
+  auto count = [&](std::vector<unsigned char>* fl) {
+    return fold_counts(U.Xs, S.F, U.Y, U.Nt, T.F, P, opt.degenerate_tol, fl);
+  };
+  res.before = count(&flags);
+  res.after = res.before;
+  std::vector<unsigned char> moved(n, 0);
+  // faces that were bad in a region whose try ended with more bad faces than it started with:
+  // a fold that the region's vertices cannot undo (typically a whole patch mapped mirrored);
+  // a larger region made only of such faces is not tried again.
+  std::vector<unsigned char> hopeless(m, 0);
+  int rings = opt.rings;
+  for (int round = 0; round < opt.rounds && res.after.bad() > 0; ++round, rings *= 2) {
+    // free vertices: the corners of bad faces and `rings` rings around them
+    std::vector<unsigned char> fr(n, 0);
+    for (int t = 0; t < m; ++t)
+      if (flags[t])
+        for (int j = 0; j < 3; ++j) fr[S.F(t, j)] = 1;
+    for (int k = 0; k < rings; ++k) {
+      std::vector<unsigned char> next = fr;
+      for (int t = 0; t < m; ++t)
+        if (fr[S.F(t, 0)] || fr[S.F(t, 1)] || fr[S.F(t, 2)])
+          for (int j = 0; j < 3; ++j) next[S.F(t, j)] = 1;
+      fr.swap(next);
+    }
+    // regions: connected components of the free vertices (in ascending order of their least vertex)
+    std::vector<int> comp(n, -1);
+    std::vector<std::vector<int>> regions;
+    for (int s = 0; s < n; ++s) {
+      if (!fr[s] || comp[s] >= 0) continue;
+      std::vector<int> R{s};
+      comp[s] = int(regions.size());
+      for (size_t q = 0; q < R.size(); ++q) {
+        const int v = R[q];
+        for (int i = U.inc_s.begin(v); i < U.inc_s.end(v); ++i)
+          for (int j = 0; j < 3; ++j) {
+            const int w = S.F(U.inc_s.faces[i], j);
+            if (fr[w] && comp[w] < 0) {
+              comp[w] = comp[s];
+              R.push_back(w);
+            }
+          }
+      }
+      std::sort(R.begin(), R.end());
+      regions.push_back(std::move(R));
+    }
+    for (const std::vector<int>& R : regions) {
+      // the faces the region's images touch, and how many of them are bad now
+      std::vector<int> faces;
+      for (int v : R)
+        for (int i = U.inc_s.begin(v); i < U.inc_s.end(v); ++i) faces.push_back(U.inc_s.faces[i]);
+      std::sort(faces.begin(), faces.end());
+      faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
+      int bad_before = 0, bad_hopeless = 0;
+      for (int t : faces) {
+        bad_before += flags[t] != 0;
+        bad_hopeless += flags[t] != 0 && hopeless[t];
+      }
+      if (bad_before == 0 || bad_hopeless == bad_before) continue;
+      ++res.regions;
+      BarycentricMap saved;
+      saved.elem.resize(int(R.size()));
+      saved.bary.resize(int(R.size()), 3);
+      for (size_t i = 0; i < R.size(); ++i) {
+        saved.elem(int(i)) = P.elem(R[i]);
+        saved.bary.row(int(i)) = P.bary.row(R[i]);
+      }
+      // Tutte sweeps over the corners of bad triangles (of this region), then the energy
+      std::vector<int> seeds;
+      for (int v : R)
+        for (int i = U.inc_s.begin(v); i < U.inc_s.end(v); ++i)
+          if (flags[U.inc_s.faces[i]] >= opt.smooth_min_flag) {
+            seeds.push_back(v);
+            break;
+          }
+      for (int s = 0; s < opt.smooth_sweeps; ++s)
+        for (int v : seeds) U.average_vertex(v);
+      for (int s = 0; s < opt.sweeps; ++s) {
+        const double w = opt.sweeps > 1 ? double(s) / (opt.sweeps - 1) : 1.0;
+        const double delta = opt.delta_start * std::pow(opt.delta_end / opt.delta_start, w);
+        for (int v : R) U.relax_vertex(v, delta);
+      }
+      std::vector<unsigned char> fl;
+      count(&fl);
+      int bad_after = 0;
+      for (int t : faces) bad_after += fl[t] != 0;
+      if (bad_after < bad_before) {
+        ++res.regions_kept;
+        for (size_t i = 0; i < R.size(); ++i)
+          if (P.elem(R[i]) != saved.elem(int(i)) || P.bary.row(R[i]) != saved.bary.row(int(i))) moved[R[i]] = 1;
+      } else {
+        if (bad_after > bad_before)
+          for (int t : faces)
+            if (flags[t]) hopeless[t] = 1;
+        for (size_t i = 0; i < R.size(); ++i)
+          U.set_image(R[i], saved.elem(int(i)), saved.bary.row(int(i)).transpose());
+      }
+    }
+    res.after = count(&flags);
+  }
+  for (int v = 0; v < n; ++v) res.vertices_moved += moved[v];
+  res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  return res;
+}
+
+}  // namespace shapemap
