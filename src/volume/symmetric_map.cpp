@@ -1194,7 +1194,13 @@ class Landing {
       if (d > depth) y = p + (depth / d) * (y - p);
     };
     untangle_tets(e_.arap().tets(), rules, opt_.land_untangle_rounds, Y);
-    // Rows that moved are located where they are now (in M_j), the others as before.
+    keep_if_fewer(surface_rows, Y, best_map, best, best_count);
+  }
+
+  // Y (a moved copy of the located `best`) located in M_j, rows that moved where they are now
+  // and the others as before; it replaces best when it inverts fewer tets.
+  void keep_if_fewer(const std::vector<int>& surface_rows, const Eigen::MatrixXd& Y, BarycentricMap& best_map,
+                     Eigen::MatrixXd& best, int& best_count) const {
     std::vector<int> rows;
     for (int v : surface_rows)
       if (Y.row(v) == best.row(v)) rows.push_back(v);
@@ -1226,7 +1232,6 @@ class Landing {
       return signed_tet_volume(Mi_.V.row(T(t, 0)), Mi_.V.row(T(t, 1)), Mi_.V.row(T(t, 2)), Mi_.V.row(T(t, 3)));
     };
     Eigen::MatrixXd Y = best;
-    std::vector<char> moved(Y.rows(), 0);
     int best_here = best_count;
     Eigen::MatrixXd best_Y = Y;
     for (int round = 0; round < kLiftRounds; ++round) {
@@ -1265,7 +1270,6 @@ class Landing {
         const ClosestPointResult h = locator_.locate(Eigen::Vector3d(y.transpose()));
         if (h.sqdist > 0) continue;  // would leave M_j
         Y.row(best_c) = y;
-        moved[best_c] = 1;
       }
       const int c = count_inverted(arap, Y);
       if (c < best_here) {
@@ -1273,18 +1277,7 @@ class Landing {
         best_Y = Y;
       }
     }
-    if (best_here >= best_count) return;
-    std::vector<int> rows;  // moved rows are located where they are now
-    for (int v : surface_rows)
-      if (best_Y.row(v) == best.row(v)) rows.push_back(v);
-    BarycentricMap m = locate_in_tets(Mj_, best_Y, rows);
-    Eigen::MatrixXd P = map_positions(m, Mj_.V, Mj_.T);
-    const int c = count_inverted(arap, P);
-    if (c < best_count) {
-      best_count = c;
-      best_map = std::move(m);
-      best = std::move(P);
-    }
+    if (best_here < best_count) keep_if_fewer(surface_rows, best_Y, best_map, best, best_count);
   }
 
   // Step 4: repair of inverted tets (stage 5's energy, with the sigma penalty) in which
