@@ -322,6 +322,9 @@ void bind_prepare(py::module_& m) {
   py::class_<PreparedSurface, std::shared_ptr<PreparedSurface>>(m, "PreparedSurface")
       .def_property_readonly("num_vertices", [](const PreparedSurface& p) { return p.repair.mesh.num_vertices(); })
       .def_property_readonly("notes", [](const PreparedSurface& p) { return p.repair.notes; })
+      // BIM's feature points: with the other surface's, they fix the number of candidate
+      // maps, and so the cost of a pair (batch runs the costliest pairs first).
+      .def_property_readonly("num_features", [](const PreparedSurface& p) { return p.bim ? int(p.bim->features.size()) : 0; })
       // Picklable, so one preparation serves pairs on every Dask worker (batch).
       .def(py::pickle([](const PreparedSurface& p) { return py::bytes(save_prepared_surface(p)); },
                       [](const py::bytes& b) {
