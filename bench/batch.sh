@@ -55,6 +55,13 @@ if [ $direct = 1 ]; then
   t_direct=$(calc "$(now) - $t0")
 fi
 
+# What this machine gives two jobs at once: one pair (s1, s5: the longest of the batch) alone,
+# then two copies of it at the same time, each on 1 thread. Each copy slower than alone (other
+# programs, memory, shared physical cores) bounds what 2 workers can gain.
+one_pair() { "$exe" --quiet --threads 1 surface-map "${shapes[0]}" "${shapes[4]}" -o "$work/ceiling/$1" >/dev/null; }
+t0=$(now); one_pair alone; t_alone=$(calc "$(now) - $t0")
+t0=$(now); one_pair a & one_pair b & wait; t_two=$(calc "$(now) - $t0")
+
 run_batch() {  # workers; the run's wall-clock start and end go to $work/wall$1
   local t e
   t=$(now)
@@ -107,6 +114,8 @@ if [ $direct = 1 ]; then
 fi
 printf '  Dask layer vs the tasks themselves:    %+.1f%% (<= 5%%): %s\n' "$dask_overhead" "$(pf "$dask_overhead <= 5")"
 if [ $direct = 1 ]; then echo "  (the CLI runs also render report.html and PNG pictures, which batch does not)"; fi
+printf '  one pair alone %.2f s, two copies at once %.2f s: 2 jobs run %.2fx faster than 1 on this machine now\n' \
+  "$t_alone" "$t_two" "$(calc "2 * $t_alone / $t_two")"
 echo "  timeline (per-task worker, start, end in summary.json; wall = this script's clock around the batch):"
 printf '    1 worker:  utilization %s%%, head %.2f s, tail %.2f s; tasks %.1f s (shapes %.1f, pairs %.1f), CPU %.1f s\n' \
   "$util1" "$head1" "$tail1" "$busy1" "$shape1" "$pair1" "$cpu1"

@@ -51,11 +51,13 @@ def shape_name(path):
 
 
 def _worker_id():
-    """The Dask worker running the current task (its address), or this process and thread."""
+    """The Dask worker running the current task (its address), or this process and thread.
+    Never imports distributed: a shape task that runs while the driver imports it would wait
+    for the whole import."""
+    get_worker = getattr(sys.modules.get("distributed"), "get_worker", None)
     try:
-        from distributed import get_worker
         return get_worker().address
-    except (ImportError, ValueError):
+    except (TypeError, ValueError):  # no distributed (yet), or not in a worker
         return f"pid{os.getpid()}-{threading.get_ident()}"
 
 
@@ -64,8 +66,8 @@ def _timing(kind, name, start, cpu):
     its start and end (wall clock, time.time(): one clock for all local workers) and the CPU
     seconds of its thread (`start`, `cpu`: time.time() and time.thread_time() at its start).
     cpu well below end - start: the task waited (a lock, or other programs on the cores)."""
-    return {"kind": kind, "name": name, "worker": _worker_id(), "start": start, "end": time.time(),
-            "cpu": time.thread_time() - cpu}
+    end, cpu = time.time(), time.thread_time() - cpu
+    return {"kind": kind, "name": name, "worker": _worker_id(), "start": start, "end": end, "cpu": cpu}
 
 
 # ---- tasks (run on the workers) ---------------------------------------------------------
@@ -467,44 +469,56 @@ def run_batch(a, paths, pairs, progress, driver):
         except OSError:
             sizes[n] = 0
     schedule = Schedule(a.method, needed, jobs, sizes)
-    # A local cluster of worker threads lives in this process: its first shape tasks (one per
-    # worker) start now, in threads of their own, while Dask is imported and started (~0.3 s
-    # on an idle machine, more under load); each then counts as its worker's task.
-    early = []
-    if not a.scheduler and not _worker_processes(a):
-        from concurrent.futures import ThreadPoolExecutor
-        pool = ThreadPoolExecutor(a.workers, thread_name_prefix="shapemap-early")
-        for _ in range(a.workers):
-            t = schedule.next()
+    # A local cluster of worker threads lives in this process: until it is up (Dask's import
+    # and start: ~0.3 s on an idle machine, more under load), threads of its own, one per
+    # worker, run the first shape tasks; each counts as a task of the worker it is given to.
+    early, lock, up = [], threading.Lock(), threading.Event()
+
+    def early_shapes(k):
+        while not up.is_set():
+            with lock:
+                t = schedule.next() if schedule.shapes else None
             if t is None:
-                break
+                return
             n = t[1]
-            early.append((n, pool.submit(shape_task, paths[n], os.path.join(out, "shapes", n), a.method,
-                                         a.tets, a.seed, bim)))
-        pool.shutdown(wait=False)
-    from dask.distributed import as_completed
-    driver["imported"] = time.time()
-    client, cluster = start_client(a)
-    driver["cluster"] = time.time()
+            try:
+                data = shape_task(paths[n], os.path.join(out, "shapes", n), a.method, a.tets, a.seed, bim)
+            except BaseException as e:  # raised in the driver below, like a failed Dask task
+                data = e
+            early.append((k, n, data))
+            if isinstance(data, BaseException):
+                return
+
+    threads = []
+    if not a.scheduler and not _worker_processes(a):
+        threads = [threading.Thread(target=early_shapes, args=(k,), daemon=True) for k in range(a.workers)]
+        for t in threads:
+            t.start()
     futures = []
     shape_futures = {}  # name -> future of shape_task (its data stays on the workers)
+    try:
+        from dask.distributed import as_completed
+        driver["imported"] = time.time()
+        client, cluster = start_client(a)
+        driver["cluster"] = time.time()
+    finally:
+        up.set()
+        for t in threads:
+            t.join()
     try:
         client.wait_for_workers(1)
         meta = {}  # future -> (kind, name, worker it was given to)
         busy = {}  # worker -> tasks given to it and not finished
         done = as_completed()
         workers = sorted(_worker_slots(client))
-        for k, (n, f) in enumerate(early):
+        for k, n, data in early:  # to the cluster: the data stays in this process
+            if isinstance(data, BaseException):
+                raise data
             w = workers[k % len(workers)]
-            data = f.result()
             data["task"]["worker"] = w
-            busy[w] = busy.get(w, 0) + 1
             shape_futures[n] = client.scatter([data], workers=[w], hash=False)[0]
-            f = client.submit(shape_info, shape_futures[n], key=f"shape-info-{n}-{time.time_ns()}", pure=False,
-                              workers=[w], allow_other_workers=True)
-            meta[f] = ("shape", n, w)
-            futures.append(f)
-            done.add(f)
+            infos[n] = shape_info(data)
+            schedule.shape_done(n, infos[n])
 
         def dispatch():
             slots = _worker_slots(client)
@@ -545,6 +559,8 @@ def run_batch(a, paths, pairs, progress, driver):
                 results.append(r)
                 progress.pair(r)
             dispatch()
+        if schedule:
+            raise RuntimeError("batch: tasks left unscheduled (a bug)")
         driver["tasks_done"] = time.time()
     except KeyboardInterrupt:
         # Drop the queued tasks: closing waits only for the running ones (worker threads
