@@ -333,7 +333,8 @@ void bind_prepare(py::module_& m) {
                         return load_prepared_surface(s);
                       }));
   m.def("prepare_surface", [](const RowMatrixXd& V, const RowMatrixXi& F, const std::string& name, std::uint64_t seed,
-                              int features, int samples, bool strict, py::object progress) {
+                              int features, int samples, bool strict, int threads, py::object progress) {
+    set_threads(threads);
     BIMOptions o;
     o.seed = seed;
     o.max_features = features;

@@ -130,7 +130,7 @@ def _landmarks(d, a, b):
     return (np.loadtxt(fa, dtype=int, ndmin=1).tolist(), np.loadtxt(fb, dtype=int, ndmin=1).tolist())
 
 
-def _bim_prepared(path, mesh, cache, seed):
+def _bim_prepared(path, mesh, cache, seed, threads):
     """BIM's per-surface stage of one shape: from the cache file of an earlier batch, else
     computed (and saved). Returns (prepared surface, computed now)."""
     import pickle
@@ -142,14 +142,14 @@ def _bim_prepared(path, mesh, cache, seed):
                 return pickle.load(fh), False
         except (OSError, RuntimeError, pickle.UnpicklingError, EOFError):
             pass  # another format version or a torn file: prepare again
-    p = shapemap.prepare_surface(*mesh, seed=seed, name=path)
+    p = shapemap.prepare_surface(*mesh, seed=seed, name=path, threads=threads)
     with open(f + ".tmp", "wb") as fh:
         pickle.dump(p, fh, protocol=pickle.HIGHEST_PROTOCOL)
     os.replace(f + ".tmp", f)
     return p, True
 
 
-def load_shape(prep, cache, method, seed, bim):
+def load_shape(prep, cache, method, seed, bim, threads=1):
     """One shape for its pairs, once per batch: its arrays (not read again per pair) and,
     with `bim`, its prepared surface for BIM. Never raises: a failure is returned and
     reported by the shape's pairs."""
@@ -161,7 +161,7 @@ def load_shape(prep, cache, method, seed, bim):
     try:
         data["mesh"] = _load(prep, cache, "surface" if method in ("bim", "elastic") else "volume")
         if bim:
-            data["prepared"], fresh = _bim_prepared(prep["shape"], data["mesh"], cache, seed)
+            data["prepared"], fresh = _bim_prepared(prep["shape"], data["mesh"], cache, seed, threads)
             # An id per preparation: the summary counts distinct ids (once per shape and batch).
             data["bim"] = {"id": f"{os.getpid()}-{time.time_ns()}", "computed": fresh}
     except (ValueError, RuntimeError, OSError, MemoryError) as e:
@@ -170,13 +170,13 @@ def load_shape(prep, cache, method, seed, bim):
     return data
 
 
-def shape_task(path, cache, method, tets, seed, bim):
+def shape_task(path, cache, method, tets, seed, bim, threads):
     """All the per-shape work of one shape, one task: prepare_shape then load_shape. Returns
     load_shape's result with the preparation info ("prep") and the task's record ("task");
     shape_info() gives the driver the small part of it."""
     start, cpu = time.time(), time.thread_time()
     prep = prepare_shape(path, cache, method, tets, seed)
-    data = load_shape(prep, cache, method, seed, bim)
+    data = load_shape(prep, cache, method, seed, bim, threads)
     data["prep"] = prep
     p = data["prepared"]
     data["features"] = p.num_features if p is not None else 0
@@ -482,7 +482,8 @@ def run_batch(a, paths, pairs, progress, driver):
                 return
             n = t[1]
             try:
-                data = shape_task(paths[n], os.path.join(out, "shapes", n), a.method, a.tets, a.seed, bim)
+                data = shape_task(paths[n], os.path.join(out, "shapes", n), a.method, a.tets, a.seed, bim,
+                                  a.threads_per_worker)
             except BaseException as e:  # raised in the driver below, like a failed Dask task
                 data = e
             early.append((k, n, data))
@@ -534,7 +535,8 @@ def run_batch(a, paths, pairs, progress, driver):
                     if t[0] == "shape":
                         n = t[1]
                         f = client.submit(shape_task, paths[n], os.path.join(out, "shapes", n), a.method,
-                                          a.tets, a.seed, bim, key=f"shape-{n}-{stamp}", pure=False, **where)
+                                          a.tets, a.seed, bim, a.threads_per_worker, key=f"shape-{n}-{stamp}",
+                                          pure=False, **where)
                         shape_futures[n] = f
                         f = client.submit(shape_info, f, key=f"shape-info-{n}-{stamp}", pure=False, **where)
                     else:
