@@ -114,7 +114,7 @@ if [ $direct = 1 ]; then
 fi
 printf '  Dask layer vs the tasks themselves:    %+.1f%% (<= 5%%): %s\n' "$dask_overhead" "$(pf "$dask_overhead <= 5")"
 if [ $direct = 1 ]; then echo "  (the CLI runs also render report.html and PNG pictures, which batch does not)"; fi
-printf '  one pair alone %.2f s, two copies at once %.2f s: 2 jobs run %.2fx faster than 1 on this machine now\n' \
+printf '  machine: one pair alone %.2f s, two copies at once %.2f s: %.2fx the throughput (2.00: two free cores)\n' \
   "$t_alone" "$t_two" "$(calc "2 * $t_alone / $t_two")"
 echo "  timeline (per-task worker, start, end in summary.json; wall = this script's clock around the batch):"
 printf '    1 worker:  utilization %s%%, head %.2f s, tail %.2f s; tasks %.1f s (shapes %.1f, pairs %.1f), CPU %.1f s\n' \
