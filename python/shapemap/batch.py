@@ -30,6 +30,7 @@ Exit code:
 """
 import argparse
 import csv
+import heapq
 import html
 import json
 import os
@@ -413,30 +414,33 @@ class Schedule:
         sizes = sizes or {}
         self.method = method
         self.shapes = sorted(shapes, key=lambda n: -sizes.get(n, 0))  # stable: given order on ties
-        self.waiting = list(jobs)
-        self.ready = []  # pairs whose shapes are ready, costliest first
+        self.by_shape = {}  # shape -> its pairs still waiting for a shape
+        for j in jobs:
+            self.by_shape.setdefault(j["A"], []).append(j)
+            if j["B"] != j["A"]:
+                self.by_shape.setdefault(j["B"], []).append(j)
+        self.waiting = len(jobs)  # pairs not ready yet
+        self.ready = []  # heap of (negated cost, order of arrival, pair) of the ready pairs
+        self.arrived = 0
         self.info = {}
 
     def shape_done(self, name, info):
         """Shape `name` is ready (info: shape_info's dict); its pairs may become ready."""
-        import bisect
         self.info[name] = info
-        still = []
-        for j in self.waiting:
-            if j["A"] in self.info and j["B"] in self.info:
-                j = dict(j, cost=pair_cost(self.method, self.info[j["A"]], self.info[j["B"]]))
-                keys = [(tuple(-c for c in r["cost"])) for r in self.ready]
-                self.ready.insert(bisect.bisect_right(keys, tuple(-c for c in j["cost"])), j)
-            else:
-                still.append(j)
-        self.waiting = still
+        for j in self.by_shape.pop(name, []):
+            other = j["B"] if j["A"] == name else j["A"]
+            if other in self.info:
+                cost = pair_cost(self.method, self.info[j["A"]], self.info[j["B"]])
+                heapq.heappush(self.ready, (tuple(-c for c in cost), self.arrived, dict(j, cost=cost)))
+                self.arrived += 1
+                self.waiting -= 1
 
     def next(self):
         """("shape", name), ("pair", job), or None (nothing can start now)."""
         if self.shapes:
             return "shape", self.shapes.pop(0)
         if self.ready:
-            return "pair", self.ready.pop(0)
+            return "pair", heapq.heappop(self.ready)[2]
         return None
 
     def __bool__(self):

@@ -141,3 +141,31 @@ def test_schedule_order():
     # other methods: the meshes' size first
     assert pair_cost("volume", {"features": 0, "vertices": 9}, {"features": 0, "vertices": 1}) > \
         pair_cost("volume", {"features": 0, "vertices": 2}, {"features": 0, "vertices": 2})
+
+
+def test_schedule_many_shapes():
+    # Every pair comes out exactly once, after both its shapes, costliest first among those
+    # ready together; fast enough for a few hundred shapes.
+    import random
+    import time
+    from shapemap.batch import Schedule
+    names = [f"s{k}" for k in range(300)]
+    jobs = [{"pair": f"{a}__{b}", "A": a, "B": b} for i, a in enumerate(names) for b in names[i + 1:]]
+    rng = random.Random(1)
+    t0 = time.perf_counter()
+    s = Schedule("bim", names, jobs)
+    shapes = [s.next()[1] for _ in names]
+    assert shapes == names  # no sizes: the given order
+    rng.shuffle(shapes)
+    done, out = set(), []
+    for n in shapes:
+        s.shape_done(n, {"features": rng.randint(3, 8), "vertices": rng.randint(500, 5000)})
+        done.add(n)
+        drained = []
+        while (t := s.next()) is not None:
+            assert t[1]["A"] in done and t[1]["B"] in done
+            drained.append(t[1])
+        assert all(x["cost"] >= y["cost"] for x, y in zip(drained, drained[1:]))
+        out += drained
+    assert not s and len(out) == len(jobs) == len({j["pair"] for j in out})
+    assert time.perf_counter() - t0 < 10
