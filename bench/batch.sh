@@ -7,10 +7,12 @@
 #   - 2 workers >= 1.7x faster than 1 worker;
 #   - the Python and Dask layers add <= 5%: the 1-worker batch against the direct runs
 #     (which also render pictures), and against the time inside its own tasks (shapes and pairs).
-# And the 2-worker batch's timeline, from the per-task worker, start and end in summary.json:
+# Then what the machine gives two jobs at once (one pair alone, then two copies together), and
+# each batch's timeline, from the per-task worker, start, end and CPU seconds in summary.json:
 # utilization (busy worker-seconds / (wall x workers)), the serial head (start -> first task),
-# the tail (the last-but-one worker out of tasks -> end), and the sum of the task times on 1 and
-# on 2 workers (more on 2: tasks slow each other down, e.g. memory bandwidth or shared locks).
+# the tail (the last-but-one worker out of tasks -> end), and the task time and task CPU on 1
+# and on 2 workers (more CPU on 2: tasks slow each other down, e.g. memory bandwidth; more time
+# than CPU: they waited for a core or a lock).
 # Usage: bench/batch.sh [--vertices N] [--build DIR] [--work DIR] [--no-direct]
 #        (default 1500 vertices, build, bench/out/batch; --no-direct skips the direct runs)
 set -euo pipefail
