@@ -323,15 +323,29 @@ void bind_prepare(py::module_& m) {
   py::class_<PreparedSurface, std::shared_ptr<PreparedSurface>>(m, "PreparedSurface")
       .def_property_readonly("num_vertices", [](const PreparedSurface& p) { return p.repair.mesh.num_vertices(); })
       .def_property_readonly("notes", [](const PreparedSurface& p) { return p.repair.notes; })
+      // BIM's feature points: with the other surface's, they fix the number of candidate
+      // maps, and so the cost of a pair (batch runs the costliest pairs first).
+      .def_property_readonly("num_features",
+                             [](const PreparedSurface& p) { return p.bim ? int(p.bim->features.size()) : 0; })
       // Picklable, so one preparation serves pairs on every Dask worker (batch).
-      .def(py::pickle([](const PreparedSurface& p) { return py::bytes(save_prepared_surface(p)); },
+      // Both directions without the GIL (0.08 s each for 1500 vertices, under load): worker
+      // threads of a batch pickle their shapes for its cache while the others run.
+      .def(py::pickle([](const PreparedSurface& p) {
+                        std::string s;
+                        {
+                          py::gil_scoped_release nogil;
+                          s = save_prepared_surface(p);
+                        }
+                        return py::bytes(s);
+                      },
                       [](const py::bytes& b) {
                         const std::string s = b;
                         py::gil_scoped_release nogil;
                         return load_prepared_surface(s);
                       }));
   m.def("prepare_surface", [](const RowMatrixXd& V, const RowMatrixXi& F, const std::string& name, std::uint64_t seed,
-                              int features, int samples, bool strict, py::object progress) {
+                              int features, int samples, bool strict, int threads, py::object progress) {
+    set_threads(threads);
     BIMOptions o;
     o.seed = seed;
     o.max_features = features;

@@ -146,12 +146,13 @@ def _pair(a, b, target_A, target_B, report):
     return m
 
 
-def prepare_surface(V, F, seed=1, features=10, samples=256, strict=False, name="A", progress=None):
+def prepare_surface(V, F, seed=1, features=10, samples=256, strict=False, name="A", threads=0, progress=None):
     """A surface repaired, checked and prepared for BIM once (geodesics, sampling, features,
     flattening), for many surface_map(..., prepared=(pA, pB)) calls without landmarks.
-    The options must be those of the surface_map calls (else it is not used)."""
+    The options must be those of the surface_map calls (else it is not used).
+    threads: OpenMP threads of this call (0: OMP_NUM_THREADS, else all cores)."""
     return _shapemap.prepare_surface(_v(V), _e(F), str(name), int(seed), int(features), int(samples),
-                                     bool(strict), progress)
+                                     bool(strict), int(threads), progress)
 
 
 def surface_map(VA, FA, VB, FB, method="bim", landmarks=None, init=None, init_reverse=None, symmetric=False,

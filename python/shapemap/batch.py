@@ -10,22 +10,27 @@ started (threads of this process for bim and elastic, worker processes for volum
 register or with --worker-processes); with it, the tasks go to a running cluster
 (dask-scheduler and dask-worker on any machines that see DIR and the shapes at the same paths).
 
-Per-shape work is done once per shape, as its own task, and cached in DIR/shapes/<name>/
+Per-shape work is done once per shape, as one task, and cached in DIR/shapes/<name>/
 (reading and checks; for volume and register the tetrahedralization of surface inputs), so
-a rerun reuses it. A second task per shape holds its arrays for the pairs (read once per
+a rerun reuses it. The task's result holds the shape's arrays for the pairs (read once per
 batch) and, for bim and elastic without landmarks, BIM's per-surface stage (prepare_surface:
 geodesics, features, flattening), done once per shape and batch and shared by every pair
 that uses the shape (pickled to the workers that need it; saved in DIR/shapes/<name>/ too).
+The driver hands out the tasks itself, one per worker thread at a time (class Schedule):
+shapes first, then each pair once its two shapes are ready, the costliest first.
 Each pair is a task writing DIR/<A>__<B>/ (map_AB.txt [map_BA.txt], A_on_B.<obj|vtk>
 [B_on_A], report.json; volume/register: A.vtk, B.vtk, the meshes the maps index) under a
 temporary name, renamed when complete. A rerun skips pairs whose folder is complete. A
 failing pair is recorded with its error and the others go on. DIR/summary.csv and
 DIR/summary.html list per pair the status (ok, failed, skipped), the time and the metrics;
-DIR/summary.json has the totals and the preparation counts. Exit code:
+DIR/summary.json has the totals, the preparation counts and the timeline: per task its
+worker, start, end and CPU seconds, and the driver's moments (task_timeline() sums it up).
+Exit code:
 0 when no pair failed, 1 otherwise, 2 for bad arguments.
 """
 import argparse
 import csv
+import heapq
 import html
 import json
 import os
@@ -44,6 +49,26 @@ VOLUME_METRICS = ("n_inv", "d_avg_hat", "d_max_hat", "det_J_mean", "det_J_sd", "
 
 def shape_name(path):
     return os.path.splitext(os.path.basename(path))[0]
+
+
+def _worker_id():
+    """The Dask worker running the current task (its address), or this process and thread.
+    Never imports distributed: a shape task that runs while the driver imports it would wait
+    for the whole import."""
+    get_worker = getattr(sys.modules.get("distributed"), "get_worker", None)
+    try:
+        return get_worker().address
+    except (TypeError, ValueError):  # no distributed (yet), or not in a worker
+        return f"pid{os.getpid()}-{threading.get_ident()}"
+
+
+def _timing(kind, name, start, cpu):
+    """A task's record for summary.json: kind (shape, pair), shape or pair name, the worker,
+    its start and end (wall clock, time.time(): one clock for all local workers) and the CPU
+    seconds of its thread (`start`, `cpu`: time.time() and time.thread_time() at its start).
+    cpu well below end - start: the task waited (a lock, or other programs on the cores)."""
+    end, cpu = time.time(), time.thread_time() - cpu
+    return {"kind": kind, "name": name, "worker": _worker_id(), "start": start, "end": end, "cpu": cpu}
 
 
 # ---- tasks (run on the workers) ---------------------------------------------------------
@@ -106,7 +131,7 @@ def _landmarks(d, a, b):
     return (np.loadtxt(fa, dtype=int, ndmin=1).tolist(), np.loadtxt(fb, dtype=int, ndmin=1).tolist())
 
 
-def _bim_prepared(path, mesh, cache, seed):
+def _bim_prepared(path, mesh, cache, seed, threads):
     """BIM's per-surface stage of one shape: from the cache file of an earlier batch, else
     computed (and saved). Returns (prepared surface, computed now)."""
     import pickle
@@ -118,31 +143,53 @@ def _bim_prepared(path, mesh, cache, seed):
                 return pickle.load(fh), False
         except (OSError, RuntimeError, pickle.UnpicklingError, EOFError):
             pass  # another format version or a torn file: prepare again
-    p = shapemap.prepare_surface(*mesh, seed=seed, name=path)
+    p = shapemap.prepare_surface(*mesh, seed=seed, name=path, threads=threads)
     with open(f + ".tmp", "wb") as fh:
         pickle.dump(p, fh, protocol=pickle.HIGHEST_PROTOCOL)
     os.replace(f + ".tmp", f)
     return p, True
 
 
-def load_shape(prep, cache, method, seed, bim):
+def load_shape(prep, cache, method, seed, bim, threads=1):
     """One shape for its pairs, once per batch: its arrays (not read again per pair) and,
     with `bim`, its prepared surface for BIM. Never raises: a failure is returned and
     reported by the shape's pairs."""
     t0 = time.perf_counter()
     data = {"status": prep["status"], "error": prep["error"], "mesh": None, "prepared": None, "bim": None}
     if prep["status"] != "ok":
+        data["seconds"] = time.perf_counter() - t0
         return data
     try:
         data["mesh"] = _load(prep, cache, "surface" if method in ("bim", "elastic") else "volume")
         if bim:
-            data["prepared"], fresh = _bim_prepared(prep["shape"], data["mesh"], cache, seed)
+            data["prepared"], fresh = _bim_prepared(prep["shape"], data["mesh"], cache, seed, threads)
             # An id per preparation: the summary counts distinct ids (once per shape and batch).
             data["bim"] = {"id": f"{os.getpid()}-{time.time_ns()}", "computed": fresh}
     except (ValueError, RuntimeError, OSError, MemoryError) as e:
         data.update(status="failed", error=" ".join(str(e).split()))
     data["seconds"] = time.perf_counter() - t0
     return data
+
+
+def shape_task(path, cache, method, tets, seed, bim, threads):
+    """All the per-shape work of one shape, one task: prepare_shape then load_shape. Returns
+    load_shape's result with the preparation info ("prep") and the task's record ("task");
+    shape_info() gives the driver the small part of it."""
+    start, cpu = time.time(), time.thread_time()
+    prep = prepare_shape(path, cache, method, tets, seed)
+    data = load_shape(prep, cache, method, seed, bim, threads)
+    data["prep"] = prep
+    p = data["prepared"]
+    data["features"] = p.num_features if p is not None else 0
+    data["vertices"] = len(data["mesh"][0]) if data["mesh"] is not None else 0
+    data["task"] = _timing("shape", shape_name(path), start, cpu)
+    return data
+
+
+def shape_info(data):
+    """The small part of a shape_task result, for the driver (the arrays and the prepared
+    surface stay on the workers)."""
+    return {k: data.get(k) for k in ("prep", "status", "error", "seconds", "bim", "features", "vertices", "task")}
 
 
 def _compute(job, shapeA, shapeB):
@@ -191,11 +238,11 @@ def run_pair(job, shapeA, shapeB):
     """One pair from its shapes (load_shape): computes the map and writes DIR/A__B/
     (temporary name, then renamed). Never raises for a failing pair: returns its status and
     error."""
-    t0 = time.perf_counter()
+    t0, start, cpu = time.perf_counter(), time.time(), time.thread_time()
     out = job["out"]
     tmp = f"{out}.tmp-{os.getpid()}-{threading.get_ident()}"  # workers may be threads
     # The shape tasks this pair used, for the summary (BIM preparation ids, task seconds).
-    used = {n: {"bim": d["bim"], "seconds": d.get("seconds", 0.0)} for n, d in ((job["A"], shapeA), (job["B"], shapeB))}
+    used = {n: {"bim": d["bim"]} for n, d in ((job["A"], shapeA), (job["B"], shapeB))}
     try:
         for d, name in ((shapeA, job["A"]), (shapeB, job["B"])):
             if d["status"] != "ok":
@@ -209,12 +256,12 @@ def run_pair(job, shapeA, shapeB):
         _write_pair(tmp, m, A, B, kind, report)
         os.replace(tmp, out)
         return {"pair": job["pair"], "status": "ok", "seconds": time.perf_counter() - t0, "error": "",
-                "metrics": summary_metrics(report), "shapes": used}
+                "metrics": summary_metrics(report), "shapes": used, "task": _timing("pair", job["pair"], start, cpu)}
     except (ValueError, RuntimeError, OSError, MemoryError) as e:
         shutil.rmtree(tmp, ignore_errors=True)
         msg = " ".join(str(e).split())
         return {"pair": job["pair"], "status": "failed", "seconds": time.perf_counter() - t0, "error": msg,
-                "metrics": {}, "shapes": used}
+                "metrics": {}, "shapes": used, "task": _timing("pair", job["pair"], start, cpu)}
 
 
 def summary_metrics(report):
@@ -297,6 +344,11 @@ class Progress:
         sys.stderr.flush()
 
 
+def _worker_processes(a):
+    """Local workers as processes (else threads of this process)."""
+    return a.worker_processes or a.method in ("volume", "register")
+
+
 def start_client(a):
     from dask.distributed import Client, LocalCluster
     import logging
@@ -308,7 +360,7 @@ def start_client(a):
     # the shapes' arrays and prepared surfaces are shared without pickling: the surface
     # methods release the GIL and their solvers are thread-safe. Volume methods keep
     # processes: their supernodal factorizations share one BLAS lock within a process.
-    processes = a.worker_processes or a.method in ("volume", "register")
+    processes = _worker_processes(a)
     cluster = LocalCluster(n_workers=a.workers, threads_per_worker=1, processes=processes,
                            dashboard_address=None, silence_logs=logging.ERROR)
     return Client(cluster), cluster
@@ -334,52 +386,253 @@ def skipped_result(job):
             "error": "", "metrics": summary_metrics(rep)}
 
 
-def run_batch(a, paths, pairs, progress):
-    """Submits the preparations and the pairs; returns (results, preparation infos)."""
-    from dask.distributed import as_completed
+def _choose3(n):
+    return n * (n - 1) * (n - 2) // 6 if n >= 3 else 0
+
+
+def pair_cost(method, infoA, infoB, max_candidates=10000):
+    """An estimate of a pair's cost, to run the costliest pairs first (a sort key, not
+    seconds). BIM's time grows with its candidate maps (Sec. 4: 6 C(nA,3) C(nB,3) from the
+    two surfaces' feature counts, at most max_candidates) and the pairs of them it compares,
+    then with the meshes' size; the other methods grow with the meshes' size."""
+    k = min(6 * _choose3(infoA.get("features") or 0) * _choose3(infoB.get("features") or 0), max_candidates)
+    size = (infoA.get("vertices") or 0) + (infoB.get("vertices") or 0)
+    return (k, size) if method == "bim" else (size, k)
+
+
+class Schedule:
+    """The order of a batch's tasks, decided in the driver (list scheduling): whenever a
+    worker has a free slot it gets the first of
+      1. the shape tasks not yet started, largest input file first (they unlock the pairs, and
+         their results tell what each pair will cost);
+      2. the pairs whose two shapes are ready, costliest first (pair_cost): long pairs start
+         early instead of being left alone at the end while the other workers idle.
+    Dask's own placement would queue a pair behind a long task on the worker that holds its
+    shapes; here no worker holds more tasks than it has slots, so none waits behind another."""
+
+    def __init__(self, method, shapes, jobs, sizes=None):
+        sizes = sizes or {}
+        self.method = method
+        self.shapes = sorted(shapes, key=lambda n: -sizes.get(n, 0))  # stable: given order on ties
+        self.by_shape = {}  # shape -> its pairs still waiting for a shape
+        for j in jobs:
+            self.by_shape.setdefault(j["A"], []).append(j)
+            if j["B"] != j["A"]:
+                self.by_shape.setdefault(j["B"], []).append(j)
+        self.waiting = len(jobs)  # pairs not ready yet
+        self.ready = []  # heap of (negated cost, order of arrival, pair) of the ready pairs
+        self.arrived = 0
+        self.info = {}
+
+    def shape_done(self, name, info):
+        """Shape `name` is ready (info: shape_info's dict); its pairs may become ready."""
+        self.info[name] = info
+        for j in self.by_shape.pop(name, []):
+            other = j["B"] if j["A"] == name else j["A"]
+            if other in self.info:
+                cost = pair_cost(self.method, self.info[j["A"]], self.info[j["B"]])
+                heapq.heappush(self.ready, (tuple(-c for c in cost), self.arrived, dict(j, cost=cost)))
+                self.arrived += 1
+                self.waiting -= 1
+
+    def next(self):
+        """("shape", name), ("pair", job), or None (nothing can start now)."""
+        if self.shapes:
+            return "shape", self.shapes.pop(0)
+        if self.ready:
+            return "pair", heapq.heappop(self.ready)[2]
+        return None
+
+    def __bool__(self):
+        return bool(self.shapes or self.ready or self.waiting)
+
+
+def _worker_slots(client):
+    """{worker address: threads} of the cluster's running workers."""
+    return {w: d.get("nthreads", 1) for w, d in client.scheduler_info().get("workers", {}).items()}
+
+
+def run_batch(a, paths, pairs, progress, driver):
+    """Runs the shape tasks and the pairs on Dask in the order of Schedule, at most one task per
+    worker thread at a time; returns (results, shape infos). Records its moments
+    (time.time()) in `driver`."""
     jobs, skipped = make_jobs(a, paths, pairs)
     results = [skipped_result(j) for j in skipped]
     for r in results:
         progress.pair(r)
-    preps = {}
+    infos = {}
     if not jobs:
-        return results, preps
-    client, cluster = start_client(a)
-    try:
-        needed = sorted({j["A"] for j in jobs} | {j["B"] for j in jobs})
-        out = os.path.abspath(a.output)
-        bim = a.method in ("bim", "elastic") and not a.landmarks_dir  # BIM's stage serves these pairs
-        # Per-shape tasks first (they run first), then the pairs, each as soon as its two
-        # shapes are ready; only the small preparation infos come back to this process.
-        prep_futures, shape_futures = {}, {}
-        for n in needed:
-            cache, stamp = os.path.join(out, "shapes", n), time.time_ns()
-            prep_futures[n] = client.submit(prepare_shape, paths[n], cache, a.method, a.tets, a.seed,
-                                            key=f"prepare-{n}-{stamp}", pure=False)
-            shape_futures[n] = client.submit(load_shape, prep_futures[n], cache, a.method, a.seed, bim,
-                                             key=f"shape-{n}-{stamp}", pure=False)
-        futures = [client.submit(run_pair, j, shape_futures[j["A"]], shape_futures[j["B"]],
-                                 key=f"pair-{j['pair']}-{time.time_ns()}", pure=False) for j in jobs]
+        return results, infos
+    needed = sorted({j["A"] for j in jobs} | {j["B"] for j in jobs})
+    out = os.path.abspath(a.output)
+    bim = a.method in ("bim", "elastic") and not a.landmarks_dir  # BIM's stage serves these pairs
+    sizes = {}
+    for n in needed:
         try:
-            for fut in as_completed(futures):
-                r = fut.result()
+            sizes[n] = os.path.getsize(paths[n])
+        except OSError:
+            sizes[n] = 0
+    schedule = Schedule(a.method, needed, jobs, sizes)
+    # A local cluster of worker threads lives in this process: until it is up (Dask's import
+    # and start: ~0.3 s on an idle machine, more under load), threads of its own, one per
+    # worker, run the first shape tasks; each counts as a task of the worker it is given to.
+    early, lock, up = [], threading.Lock(), threading.Event()
+
+    def early_shapes(k):
+        while not up.is_set():
+            with lock:
+                t = schedule.next() if schedule.shapes else None
+            if t is None:
+                return
+            n = t[1]
+            try:
+                data = shape_task(paths[n], os.path.join(out, "shapes", n), a.method, a.tets, a.seed, bim,
+                                  a.threads_per_worker)
+            except BaseException as e:  # raised in the driver below, like a failed Dask task
+                data = e
+            early.append((k, n, data))
+            if isinstance(data, BaseException):
+                return
+
+    threads = []
+    if not a.scheduler and not _worker_processes(a):
+        threads = [threading.Thread(target=early_shapes, args=(k,), daemon=True) for k in range(a.workers)]
+        for t in threads:
+            t.start()
+    futures = []
+    shape_futures = {}  # name -> future of shape_task (its data stays on the workers)
+    try:
+        from dask.distributed import as_completed
+        driver["imported"] = time.time()
+        client, cluster = start_client(a)
+        driver["cluster"] = time.time()
+    finally:
+        up.set()
+        for t in threads:
+            t.join()
+    try:
+        client.wait_for_workers(1)
+        meta = {}  # future -> (kind, name, worker it was given to)
+        busy = {}  # worker -> tasks given to it and not finished
+        done = as_completed()
+        workers = sorted(_worker_slots(client))
+        for k, n, data in early:  # to the cluster: the data stays in this process
+            if isinstance(data, BaseException):
+                raise data
+            w = workers[k % len(workers)]
+            data["task"]["worker"] = w
+            shape_futures[n] = client.scatter([data], workers=[w], hash=False)[0]
+            infos[n] = shape_info(data)
+            schedule.shape_done(n, infos[n])
+
+        def dispatch():
+            slots = _worker_slots(client)
+            for w in slots:
+                busy.setdefault(w, 0)
+            for w in sorted(slots, key=lambda w: busy[w] - slots[w]):
+                while busy[w] < slots[w]:
+                    t = schedule.next()
+                    if t is None:
+                        return
+                    where = dict(workers=[w], allow_other_workers=True)
+                    stamp = time.time_ns()
+                    if t[0] == "shape":
+                        n = t[1]
+                        f = client.submit(shape_task, paths[n], os.path.join(out, "shapes", n), a.method,
+                                          a.tets, a.seed, bim, a.threads_per_worker, key=f"shape-{n}-{stamp}",
+                                          pure=False, **where)
+                        shape_futures[n] = f
+                        f = client.submit(shape_info, f, key=f"shape-info-{n}-{stamp}", pure=False, **where)
+                    else:
+                        j = t[1]
+                        n = j["pair"]
+                        f = client.submit(run_pair, j, shape_futures[j["A"]], shape_futures[j["B"]],
+                                          key=f"pair-{n}-{stamp}", pure=False, **where)
+                    meta[f] = (t[0], n, w)
+                    busy[w] += 1
+                    futures.append(f)
+                    done.add(f)
+
+        dispatch()
+        for fut in done:
+            kind, name, w = meta.pop(fut)
+            busy[w] -= 1
+            r = fut.result()
+            if kind == "shape":
+                infos[name] = r
+                schedule.shape_done(name, r)
+            else:
                 results.append(r)
                 progress.pair(r)
-        except KeyboardInterrupt:
-            # Drop the queued tasks: closing waits only for the running ones (worker threads
-            # do not see Ctrl-C).
-            client.cancel(futures + list(shape_futures.values()) + list(prep_futures.values()))
-            raise
-        preps = {n: f.result() for n, f in prep_futures.items()}
+            dispatch()
+        if schedule:
+            raise RuntimeError("batch: tasks left unscheduled (a bug)")
+        driver["tasks_done"] = time.time()
+    except KeyboardInterrupt:
+        # Drop the queued tasks: closing waits only for the running ones (worker threads
+        # do not see Ctrl-C).
+        client.cancel(futures + list(shape_futures.values()))
+        raise
     finally:
         client.close()
         if cluster is not None:
             cluster.close()
-    return results, preps
+    driver["closed"] = time.time()
+    return results, infos
 
 
-def write_summary(out, a, results, preps, seconds):
+def task_timeline(summary, start=None, end=None):
+    """What the per-task records of a summary.json say about a batch's use of its workers.
+
+    start, end: wall-clock bounds of the run (default: the driver's process start and its
+    end as summary.json records them). Returns a dict:
+      workers       the workers that ran tasks
+      busy          worker-seconds inside tasks
+      cpu           CPU seconds of the tasks' threads (busy - cpu: waiting for a core or a lock)
+      utilization   busy / ((end - start) x workers)
+      head          start -> the first task's start (Python, imports, cluster start)
+      tail          the moment the last-but-one worker ran out of tasks -> end (the last
+                    tasks alone, then results, summary files, cluster shutdown, exit)
+      task_seconds  the sum of task durations per kind (prepare, shape, pair)
+    """
+    tasks = summary.get("tasks", [])
+    d = summary.get("driver", {})
+    if start is None:
+        start = d.get("process_start") or d.get("start")
+    end = d.get("end") if end is None else end
+    last = {}
+    for t in tasks:
+        last[t["worker"]] = max(last.get(t["worker"], t["end"]), t["end"])
+    busy = sum(t["end"] - t["start"] for t in tasks)
+    kinds = {}
+    for t in tasks:
+        kinds[t["kind"]] = kinds.get(t["kind"], 0.0) + t["end"] - t["start"]
+    ends = sorted(last.values())
+    n = max(1, summary.get("workers") or len(last))
+    return {"workers": len(last), "busy": busy, "cpu": sum(t.get("cpu", 0.0) for t in tasks),
+            "utilization": busy / ((end - start) * n) if tasks and end > start else 0.0,
+            "head": min(t["start"] for t in tasks) - start if tasks else 0.0,
+            "tail": end - (ends[-2] if len(ends) > 1 and n > 1 else ends[-1]) if tasks else 0.0,
+            "task_seconds": kinds}
+
+
+def _process_start():
+    """This process's start (wall clock), from /proc on Linux; None elsewhere."""
+    try:
+        with open("/proc/self/stat") as f:
+            ticks = int(f.read().rsplit(")", 1)[1].split()[19])
+        with open("/proc/stat") as f:
+            boot = next(int(l.split()[1]) for l in f if l.startswith("btime"))
+        return boot + ticks / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError, StopIteration):
+        return None
+
+
+def write_summary(out, a, results, infos, seconds, driver=None):
+    """DIR/summary.csv, summary.html and summary.json from the pairs' results and the shape
+    tasks' infos (shape_info); returns summary.json's dict."""
     results = sorted(results, key=lambda r: r["pair"])
+    preps = {n: i["prep"] for n, i in infos.items()}
     keys = []
     for r in results:
         keys += [k for k in r["metrics"] if k not in keys]
@@ -392,10 +645,11 @@ def write_summary(out, a, results, preps, seconds):
                        [r["metrics"].get(k, "") for k in keys])
     counts = {s: sum(r["status"] == s for r in results) for s in ("ok", "failed", "skipped")}
     shapes = {n: {k: p[k] for k in ("status", "error", "seconds", "prepared")} for n, p in preps.items()}
+    for n, i in infos.items():
+        shapes[n].update(load_seconds=i["seconds"] or 0.0, features=i["features"], vertices=i["vertices"])
     bim_ids = {}  # shape -> {preparation id: computed (not read from the cache)}
     for r in results:
         for n, u in r.get("shapes", {}).items():
-            shapes[n]["load_seconds"] = u["seconds"]
             if u["bim"]:
                 bim_ids.setdefault(n, {})[u["bim"]["id"]] = u["bim"]["computed"]
     for n, ids in bim_ids.items():
@@ -405,17 +659,24 @@ def write_summary(out, a, results, preps, seconds):
     task_seconds = (sum(s["seconds"] for s in shapes.values() if s["prepared"]) +
                     sum(s.get("load_seconds", 0.0) for s in shapes.values()) +
                     sum(r["seconds"] for r in results if r["status"] != "skipped"))
+    # Every task of this batch with its worker, start and end (time.time()), shape tasks once.
+    tasks = [i["task"] for i in infos.values()] + [r["task"] for r in results if r.get("task")]
+    tasks.sort(key=lambda t: t["start"])
     totals = {"method": a.method, "pairs": len(results), **counts, "seconds": seconds,
-              "task_seconds": task_seconds,
+              "task_seconds": task_seconds, "workers": a.workers if not a.scheduler else None,
               "preparations": sum(1 for p in preps.values() if p.get("prepared")),
               "preparations_reused": sum(1 for p in preps.values() if not p.get("prepared")),
               # BIM's per-surface stage: once per shape and batch, shared by its pairs
               "bim_preparations": sum(s.get("bim_preparations", 0) for s in shapes.values()),
               "bim_preparations_reused": sum(s.get("bim_preparations_reused", 0) for s in shapes.values()),
-              "shapes": shapes}
-    with open(os.path.join(out, "summary.json"), "w") as f:
-        json.dump(totals, f, indent=1)
+              "shapes": shapes, "tasks": tasks}
     write_html(out, a, results, keys, totals)
+    # The driver's moments (wall clock): process start, main(), Dask imported, cluster up,
+    # last result, cluster closed, end (summary files written).
+    totals["driver"] = dict(driver or {}, end=time.time())
+    with open(os.path.join(out, "summary.json.tmp"), "w") as f:
+        json.dump(totals, f, indent=1)
+    os.replace(os.path.join(out, "summary.json.tmp"), os.path.join(out, "summary.json"))
     return totals
 
 
@@ -459,9 +720,10 @@ def main(argv=None):
     out = os.path.abspath(a.output)
     os.makedirs(os.path.join(out, "shapes"), exist_ok=True)
     t0 = time.perf_counter()
+    driver = {"process_start": _process_start(), "start": time.time()}
     progress = Progress(len(pairs), a.quiet)
-    results, preps = run_batch(a, paths, pairs, progress)
-    t = write_summary(out, a, results, preps, time.perf_counter() - t0)
+    results, infos = run_batch(a, paths, pairs, progress, driver)
+    t = write_summary(out, a, results, infos, time.perf_counter() - t0, driver)
     if not a.quiet:
         print(f"batch: {t['pairs']} pairs, {t['ok']} ok, {t['failed']} failed, {t['skipped']} skipped; "
               f"{t['preparations']} shape preparations, {t['bim_preparations']} BIM preparations; "
@@ -473,4 +735,9 @@ def main(argv=None):
 if __name__ == "__main__":
     # The tasks must belong to shapemap.batch (importable on the workers), not to __main__.
     from shapemap.batch import main as batch_main
-    sys.exit(batch_main())
+    code = batch_main()
+    # Everything is written and the cluster closed: skip the interpreter's shutdown (Dask's
+    # threads and exit hooks, ~0.15 s on an idle machine).
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)

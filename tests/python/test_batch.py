@@ -90,3 +90,82 @@ def test_shared_preparations_give_the_direct_maps(cli, shapes, tmp_path):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["bim_preparations"] == 0 and summary["bim_preparations_reused"] == 3
     assert (out / "s0__s2" / "map_AB.txt").read_text() == want
+
+
+def test_summary_has_a_timeline(cli, shapes, tmp_path):
+    # Per task: its worker, start, end and CPU seconds; a worker runs one task at a time;
+    # a pair starts after its two shapes are ready.
+    out = tmp_path / "out"
+    three = [shapes / f"s{k}.obj" for k in range(3)]
+    r = batch(cli, *three, "-o", out, "--method", "bim", "--workers", 2)
+    assert r.returncode == 0, r.stderr
+    s = json.loads((out / "summary.json").read_text())
+    tasks = s["tasks"]
+    assert sorted(t["name"] for t in tasks if t["kind"] == "shape") == ["s0", "s1", "s2"]
+    assert sorted(t["name"] for t in tasks if t["kind"] == "pair") == ["s0__s1", "s0__s2", "s1__s2"]
+    assert len({t["worker"] for t in tasks}) <= 2
+    for t in tasks:
+        assert t["start"] <= t["end"] and t["cpu"] >= 0, t
+    for w in {t["worker"] for t in tasks}:
+        mine = sorted((t for t in tasks if t["worker"] == w), key=lambda t: t["start"])
+        assert all(x["end"] <= y["start"] for x, y in zip(mine, mine[1:])), mine
+    ready = {t["name"]: t["end"] for t in tasks if t["kind"] == "shape"}
+    for t in tasks:
+        if t["kind"] == "pair":
+            a, b = t["name"].split("__")
+            assert t["start"] >= max(ready[a], ready[b]), t
+    d = s["driver"]
+    assert d["start"] <= d["imported"] <= d["cluster"] <= d["tasks_done"] <= d["closed"] <= d["end"]
+    assert all(v["features"] >= 3 and v["vertices"] > 0 for v in s["shapes"].values())
+    from shapemap.batch import task_timeline
+    tl = task_timeline(s)
+    assert 0 < tl["utilization"] <= 1 and tl["head"] >= 0 and tl["tail"] >= 0
+    assert tl["busy"] == pytest.approx(sum(t["end"] - t["start"] for t in tasks))
+
+
+def test_schedule_order():
+    # Shapes first, largest input first; then pairs once both shapes are ready, costliest first.
+    from shapemap.batch import Schedule, pair_cost
+    jobs = [{"pair": f"{a}__{b}", "A": a, "B": b} for a, b in (("a", "b"), ("a", "c"), ("b", "c"))]
+    s = Schedule("bim", ["a", "b", "c"], jobs, sizes={"a": 10, "b": 30, "c": 20})
+    assert [s.next(), s.next()] == [("shape", "b"), ("shape", "c")]
+    assert s.next() == ("shape", "a") and s.next() is None and s
+    s.shape_done("b", {"features": 4, "vertices": 100})
+    assert s.next() is None  # no pair has both shapes yet
+    s.shape_done("c", {"features": 10, "vertices": 100})
+    s.shape_done("a", {"features": 3, "vertices": 5000})
+    # candidates 6 C(nA,3) C(nB,3), at most 10000: b-c 2880, a-c 720, a-b 24 (despite a's size)
+    assert [s.next()[1]["pair"] for _ in range(3)] == ["b__c", "a__c", "a__b"]
+    assert s.next() is None and not s
+    assert pair_cost("bim", {"features": 10, "vertices": 1}, {"features": 10, "vertices": 1})[0] == 10000
+    # other methods: the meshes' size first
+    assert pair_cost("volume", {"features": 0, "vertices": 9}, {"features": 0, "vertices": 1}) > \
+        pair_cost("volume", {"features": 0, "vertices": 2}, {"features": 0, "vertices": 2})
+
+
+def test_schedule_many_shapes():
+    # Every pair comes out exactly once, after both its shapes, costliest first among those
+    # ready together; fast enough for a few hundred shapes.
+    import random
+    import time
+    from shapemap.batch import Schedule
+    names = [f"s{k}" for k in range(300)]
+    jobs = [{"pair": f"{a}__{b}", "A": a, "B": b} for i, a in enumerate(names) for b in names[i + 1:]]
+    rng = random.Random(1)
+    t0 = time.perf_counter()
+    s = Schedule("bim", names, jobs)
+    shapes = [s.next()[1] for _ in names]
+    assert shapes == names  # no sizes: the given order
+    rng.shuffle(shapes)
+    done, out = set(), []
+    for n in shapes:
+        s.shape_done(n, {"features": rng.randint(3, 8), "vertices": rng.randint(500, 5000)})
+        done.add(n)
+        drained = []
+        while (t := s.next()) is not None:
+            assert t[1]["A"] in done and t[1]["B"] in done
+            drained.append(t[1])
+        assert all(x["cost"] >= y["cost"] for x, y in zip(drained, drained[1:]))
+        out += drained
+    assert not s and len(out) == len(jobs) == len({j["pair"] for j in out})
+    assert time.perf_counter() - t0 < 10
