@@ -1183,10 +1183,7 @@ class Landing {
     // Boundary vertices that only make room go into M_j at most kUntangleDepth mean edges of
     // dM_j deep (on the busts, let anywhere in M_j, they drifted inward and d^max rose from
     // 1.5 to 8.9 x1e-2; held on dM_j, 26 tets stayed inverted instead of 23).
-    const Eigen::MatrixXi& F = bj_.surface.F;
-    double edge = 0;
-    for (int f = 0; f < F.rows(); ++f) edge += (bj_.surface.V.row(F(f, 0)) - bj_.surface.V.row(F(f, 1))).norm();
-    const double depth = kUntangleDepth * edge / double(std::max<Eigen::Index>(F.rows(), 1));
+    const double depth = kUntangleDepth * mean_target_edge();
     rules.place_boundary_ring = [&, depth](int i, Eigen::RowVector3d& y) {
       rules.place(i, y);
       const Eigen::RowVector3d p = point_of(target_.query(Eigen::Vector3d(y.transpose())));
@@ -1195,6 +1192,13 @@ class Landing {
     };
     untangle_tets(e_.arap().tets(), rules, opt_.land_untangle_rounds, Y);
     keep_if_fewer(surface_rows, Y, best_map, best, best_count);
+  }
+
+  double mean_target_edge() const {
+    const Eigen::MatrixXi& F = bj_.surface.F;
+    double edge = 0;
+    for (int f = 0; f < F.rows(); ++f) edge += (bj_.surface.V.row(F(f, 0)) - bj_.surface.V.row(F(f, 1))).norm();
+    return edge / double(std::max<Eigen::Index>(F.rows(), 1));
   }
 
   // Y (a moved copy of the located `best`) located in M_j, rows that moved where they are now
@@ -1231,6 +1235,7 @@ class Landing {
     auto rest = [&](int t) {
       return signed_tet_volume(Mi_.V.row(T(t, 0)), Mi_.V.row(T(t, 1)), Mi_.V.row(T(t, 2)), Mi_.V.row(T(t, 3)));
     };
+    const double depth = kUntangleDepth * mean_target_edge();
     Eigen::MatrixXd Y = best;
     int best_here = best_count;
     Eigen::MatrixXd best_Y = Y;
@@ -1244,11 +1249,11 @@ class Landing {
       for (int t : flat) {
         const double need = kLiftDet * rest(t) - vol(Y, t);
         if (need <= 0) continue;  // lifted by an earlier move of this round
-        // The corner with the steepest rise along its inner normal.
+        // Corners in order of the steepest rise along their inner normal; the first whose move
+        // stays in M_j and within kUntangleDepth edges.
         static const int opp[4][3] = {{1, 3, 2}, {0, 2, 3}, {0, 3, 1}, {0, 1, 2}};
-        int best_c = -1;
-        double best_rate = 0;
-        Eigen::RowVector3d best_u;
+        std::vector<std::pair<double, int>> corners;  // (rate, corner)
+        Eigen::RowVector3d u[4];
         for (int c = 0; c < 4; ++c) {
           const int w = T(t, c);
           if (!on_bd_[w]) continue;
@@ -1256,20 +1261,19 @@ class Landing {
           const Eigen::MatrixXi& F = bj_.surface.F;
           const Eigen::RowVector3d a = bj_.surface.V.row(F(h.elem, 0)), b = bj_.surface.V.row(F(h.elem, 1)),
                                    d = bj_.surface.V.row(F(h.elem, 2));
-          const Eigen::RowVector3d u = -(b - a).cross(d - a).normalized();  // inward
+          u[c] = -(b - a).cross(d - a).normalized();  // inward
           const Eigen::RowVector3d fa = Y.row(T(t, opp[c][0])), fb = Y.row(T(t, opp[c][1])), fc = Y.row(T(t, opp[c][2]));
-          const double rate = u.dot((fb - fa).cross(fc - fa)) / 6.0;
-          if (rate > best_rate) {
-            best_rate = rate;
-            best_c = w;
-            best_u = u;
-          }
+          const double rate = u[c].dot((fb - fa).cross(fc - fa)) / 6.0;
+          if (rate > 0) corners.emplace_back(rate, c);
         }
-        if (best_c < 0) continue;
-        Eigen::RowVector3d y = Y.row(best_c) + (need / best_rate) * best_u;
-        const ClosestPointResult h = locator_.locate(Eigen::Vector3d(y.transpose()));
-        if (h.sqdist > 0) continue;  // would leave M_j
-        Y.row(best_c) = y;
+        std::sort(corners.begin(), corners.end(), std::greater<>());
+        for (const auto& [rate, c] : corners) {
+          if (need / rate > depth) continue;
+          const Eigen::RowVector3d y = Y.row(T(t, c)) + (need / rate) * u[c];
+          if (locator_.locate(Eigen::Vector3d(y.transpose())).sqdist > 0) continue;  // would leave M_j
+          Y.row(T(t, c)) = y;
+          break;
+        }
       }
       const int c = count_inverted(arap, Y);
       if (c < best_here) {
