@@ -18,9 +18,10 @@
 // symmetric Dirichlet energy with its barrier at det J = 0. Two quadratic terms per free
 // vertex keep the images near where they were and consistent with the other direction: a
 // tether to the refined image and, given the reverse map Q, the round trip |Q(y_v) - x_v|^2
-// (Sec. 3.2's reversibility). The vertices outside the regions stay where they are. A region's new images are kept only when the flipped + collapsed count
-// of eval/surface_distortion.h (fold_counts) over its triangles falls, so the stage never adds
-// a fold; regions still bad are retried with twice as many rings.
+// (Sec. 3.2's reversibility). The vertices outside the regions stay where they are. A
+// region's new images are kept only when the flipped + collapsed count of
+// eval/surface_distortion.h (fold_counts) over its triangles falls, so the stage never adds a
+// fold; regions still bad are retried with twice as many rings.
 #pragma once
 #include "shapemap/eval/surface_distortion.h"
 #include "shapemap/maps.h"
@@ -32,7 +33,7 @@ namespace shapemap {
 struct UntangleOptions {
   int rings = 2;              // free region: the corners of bad triangles and this many rings
   int rounds = 3;             // rounds; each retries the regions still bad with twice the rings
- int smooth_sweeps = 20;     // Tutte (uniform average) sweeps over the corners of bad triangles first
+  int smooth_sweeps = 20;     // Tutte (uniform average) sweeps over the corners of bad triangles first
   int smooth_min_flag = 2;    // ... of collapsed (2) or of flipped and collapsed (1) triangles
   int sweeps = 80;            // Gauss-Seidel sweeps over a region's free vertices per round
   double delta_start = 0.1;   // regularization of det J at the first sweep ...
