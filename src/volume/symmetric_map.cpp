@@ -1033,8 +1033,10 @@ class Landing {
       sliding_repair(Y);
       consider(Y);
     }
-    if (landed && best_count > 0 && opt_.land_untangle_rounds > 0) untangle_located(surface_rows, best_map, best, best_count);
-    if (landed && best_count > 0 && opt_.land_untangle_rounds > 0) lift_flat_tets(surface_rows, best_map, best, best_count);
+    if (landed && best_count > 0 && opt_.land_untangle_rounds > 0) {
+      untangle_located(surface_rows, best_map, best, best_count);
+      if (best_count > 0) lift_flat_tets(surface_rows, best_map, best, best_count);
+    }
     X = best;
     located = best_map;
     return landed;
@@ -1224,7 +1226,7 @@ class Landing {
   // det J = kLiftDet. That can flatten a neighbouring sliver the other way, whose own corner
   // then goes in: the moves cascade across the flat patch (heights only grow, as the lifting
   // of a Delaunay patch onto a paraboloid; rounds capped), and the state with the fewest
-  // inverted tets is kept. The moves are ~1e-3 of a sliver's height, far below d^.
+  // inverted tets is kept. The moves are ~1e-4 of a sliver's height, far below d^.
   void lift_flat_tets(const std::vector<int>& surface_rows, BarycentricMap& best_map, Eigen::MatrixXd& best,
                       int& best_count) {
     const ArapEnergy& arap = e_.arap();
