@@ -270,6 +270,10 @@ void add_alternation_options(CLI::App* app, VolumeMapArgs& a) {
                   "Newton X-steps with P eliminated: each trial X re-solves its P-step and the Hessian "
                   "takes P's response (ours; 0 = the paper's alternation of fixed-P steps)")
       ->capture_default_str();
+  app->add_option("--joint-xstep", a.opt.joint_xstep,
+                  "With --eliminate-p: both directions' X-steps as one Newton step, with the blocks "
+                  "that couple X12 and X21 through the P's (ours; 0 = one step per direction)")
+      ->capture_default_str();
 }
 
 // Stage 5 (post-repair) and the landing on the target (ours, issue 19).

@@ -18,23 +18,35 @@ double mean_diagonal(const Eigen::SparseMatrix<double>& H) {
 }
 }  // namespace
 
-ProjectedNewton::ProjectedNewton(BlockHessian pattern) : H_(std::move(pattern)) {
-  if (H_.num_free() > 0) chol_.analyze(H_.matrix());
+void factor_shifted(BlockHessian& H, SparseCholesky& chol, NewtonResult& res) {
+  const auto t = Clock::now();
+  double shift = 0;
+  for (int attempt = 0;; ++attempt) {
+    try {
+      chol.factorize(H.matrix());  // the analysis of the owner's constructor
+      ++res.factorizations;
+      break;
+    } catch (const Error&) {
+      if (attempt >= 12) throw Error("ProjectedNewton: the Hessian does not factor even when shifted");
+      const double add = shift == 0 ? 1e-10 * std::max(1e-300, std::abs(mean_diagonal(H.matrix()))) : 9 * shift;
+      H.add_diagonal(add);
+      shift += add;
+    }
+  }
+  res.seconds_factor += seconds_since(t);
 }
 
-NewtonResult ProjectedNewton::minimize(const NewtonValue& f, const NewtonHessian& hess,
-                                       Eigen::VectorXd& x, const NewtonOptions& opt) {
-  const int N = 3 * H_.num_free();
-  if (x.size() != N) throw Error("ProjectedNewton: x has the wrong length");
+NewtonResult newton_descent(const NewtonValue& f, const NewtonDirection& direction, Eigen::VectorXd& x,
+                            const NewtonOptions& opt) {
+  const Eigen::Index N = x.size();
   NewtonResult res;
-  g_.resize(N);
-  g_new_.resize(N);
+  Eigen::VectorXd g(N), g_new(N), x_new, d;
   auto t = Clock::now();
-  double fx = f(x, &g_);
+  double fx = f(x, &g);
   res.seconds_value += seconds_since(t);
   ++res.evaluations;
   res.f = fx;
-  res.grad_norm = g_.norm();
+  res.grad_norm = g.norm();
   if (N == 0) {
     res.stop = "gradient";
     return res;
@@ -44,37 +56,15 @@ NewtonResult ProjectedNewton::minimize(const NewtonValue& f, const NewtonHessian
       res.stop = "gradient";
       return res;
     }
-    // Newton direction: H d = -g, H positive semi-definite (shifted when it does not factor).
-    t = Clock::now();
-    H_.set_zero();
-    hess(x, H_);
-    res.seconds_hessian += seconds_since(t);
-    t = Clock::now();
-    double shift = 0;
-    for (int attempt = 0;; ++attempt) {
-      try {
-        chol_.factorize(H_.matrix());  // the analysis of the constructor
-        ++res.factorizations;
-        break;
-      } catch (const Error&) {
-        if (attempt >= 12) throw Error("ProjectedNewton: the Hessian does not factor even when shifted");
-        const double add = shift == 0 ? 1e-10 * std::max(1e-300, std::abs(mean_diagonal(H_.matrix()))) : 9 * shift;
-        H_.add_diagonal(add);
-        shift += add;
-      }
-    }
-    res.seconds_factor += seconds_since(t);
-    t = Clock::now();
-    d_ = -chol_.solve(g_);
-    res.seconds_solve += seconds_since(t);
-    double slope = g_.dot(d_);
-    if (!(slope < 0) || !d_.allFinite()) {  // not a descent direction (rounding): steepest descent
-      d_ = -g_;
-      slope = -g_.squaredNorm();
+    direction(x, g, d, res);
+    double slope = g.dot(d);
+    if (!(slope < 0) || !d.allFinite()) {  // not a descent direction (rounding): steepest descent
+      d = -g;
+      slope = -g.squaredNorm();
     }
     double step = 1.0;
     if (opt.max_step > 0) {
-      const double longest = d_.lpNorm<Eigen::Infinity>();
+      const double longest = d.lpNorm<Eigen::Infinity>();
       if (longest > opt.max_step) step = opt.max_step / longest;
     }
     // Backtracking (Armijo) on the full energy.
@@ -82,8 +72,8 @@ NewtonResult ProjectedNewton::minimize(const NewtonValue& f, const NewtonHessian
     double f_new = fx;
     t = Clock::now();
     for (int ls = 0; ls < opt.max_line_search; ++ls) {
-      x_new_ = x + step * d_;
-      f_new = f(x_new_, &g_new_);
+      x_new = x + step * d;
+      f_new = f(x_new, &g_new);
       ++res.evaluations;
       if (std::isfinite(f_new) && f_new <= fx + opt.c1 * step * slope) {
         accepted = true;
@@ -99,11 +89,11 @@ NewtonResult ProjectedNewton::minimize(const NewtonValue& f, const NewtonHessian
       return res;
     }
     const double decrease = fx - f_new;
-    x.swap(x_new_);
-    g_.swap(g_new_);
+    x.swap(x_new);
+    g.swap(g_new);
     fx = f_new;
     res.f = fx;
-    res.grad_norm = g_.norm();
+    res.grad_norm = g.norm();
     if (decrease < opt.f_rel_tol * std::max(1e-300, std::abs(fx + decrease))) {
       res.stop = "decrease";
       return res;
@@ -111,6 +101,28 @@ NewtonResult ProjectedNewton::minimize(const NewtonValue& f, const NewtonHessian
   }
   res.stop = res.grad_norm < opt.grad_tol ? "gradient" : "iterations";
   return res;
+}
+
+ProjectedNewton::ProjectedNewton(BlockHessian pattern) : H_(std::move(pattern)) {
+  if (H_.num_free() > 0) chol_.analyze(H_.matrix());
+}
+
+NewtonResult ProjectedNewton::minimize(const NewtonValue& f, const NewtonHessian& hess,
+                                       Eigen::VectorXd& x, const NewtonOptions& opt) {
+  if (x.size() != 3 * H_.num_free()) throw Error("ProjectedNewton: x has the wrong length");
+  // Newton direction: H d = -g, H positive semi-definite (shifted when it does not factor).
+  NewtonDirection newton = [&](const Eigen::VectorXd& z, const Eigen::VectorXd& g, Eigen::VectorXd& d,
+                               NewtonResult& res) {
+    auto t = Clock::now();
+    H_.set_zero();
+    hess(z, H_);
+    res.seconds_hessian += seconds_since(t);
+    factor_shifted(H_, chol_, res);
+    t = Clock::now();
+    d = -chol_.solve(g);
+    res.seconds_solve += seconds_since(t);
+  };
+  return newton_descent(f, newton, x, opt);
 }
 
 }  // namespace shapemap

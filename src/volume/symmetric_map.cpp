@@ -5,6 +5,7 @@
 #include "shapemap/geometry/mass.h"
 #include "shapemap/geometry/tet_volume.h"
 #include "shapemap/optim/anderson.h"
+#include "shapemap/optim/coupled_newton.h"
 #include "shapemap/optim/lbfgs.h"
 #include "shapemap/optim/newton.h"
 #include "shapemap/timing.h"
@@ -423,16 +424,12 @@ void DirectionalEnergy::add_eliminated_p_hessian(const Eigen::MatrixXd& X, const
   if (beta_ == 0 || alpha_ == 1 || P_ij.size() != ni || Pji_.size() != nj) return;
   // E_Q of row v of P_ij (y in M_j) with the other direction's E_R: per vertex of M_i,
   // b|X_v - y|^2 + a|A y + c - V_i(v)|^2, A the Jacobian of X_ji on y's tet. Eliminating y
-  // leaves 2b (I - b T (b I + a T^T A^T A T)^-1 T^T); add_hessian() has 2b I.
+  // leaves 2b (I - b S), S = T (b I + a T^T A^T A T)^-1 T^T; add_hessian() has 2b I.
   for (int v = 0; v < ni; ++v) {
     if (H.free_index(v) < 0 || (held_ij && (*held_ij)[v])) continue;
-    const Eigen::MatrixXd T = free_directions(Mj_, bj_faces_, P_ij.elem(v), P_ij.bary.row(v));
-    if (T.cols() == 0) continue;  // at a corner of dM_j: y held, the fixed-P Hessian is exact
-    const Eigen::Matrix3d A = tet_jacobian(Mj_, X_ji, P_ij.elem(v));
-    const double b = beta_ * Ci_(v) / (ci_ * cj_), a = (1.0 - alpha_) * Ci_(v) / (ci_ * ci_);
-    const Eigen::MatrixXd AT = A * T;
-    const Eigen::MatrixXd M = b * Eigen::MatrixXd::Identity(T.cols(), T.cols()) + a * AT.transpose() * AT;
-    H.add_block(v, v, -2.0 * b * b * (T * M.ldlt().solve(T.transpose())));
+    double a, b;
+    Eigen::Matrix3d A, S;
+    if (forward_row_schur(v, P_ij, X_ji, a, b, A, S)) H.add_block(v, v, -2.0 * b * b * S);
   }
   // E_R of this direction with row w of P_ji (y in M_i, in tet s, coordinates l) and E_Q of
   // the other: a|X(y) - V_j(w)|^2 + b|X_ji(w) - y|^2. Eliminating y (Gauss-Newton: X(y) =
@@ -452,6 +449,38 @@ void DirectionalEnergy::add_eliminated_p_hessian(const Eigen::MatrixXd& X, const
     for (int p = 0; p < 4; ++p)
       for (int q = 0; q < 4; ++q) He.block<3, 3>(3 * p, 3 * q) = (Pji_.bary(w, p) * Pji_.bary(w, q)) * D;
     H.add_element(t, He);
+  }
+}
+
+bool DirectionalEnergy::forward_row_schur(int v, const BarycentricMap& P_ij, const Eigen::MatrixXd& X_ji,
+                                          double& a, double& b, Eigen::Matrix3d& A, Eigen::Matrix3d& S) const {
+  const Eigen::MatrixXd T = free_directions(Mj_, bj_faces_, P_ij.elem(v), P_ij.bary.row(v));
+  if (T.cols() == 0) return false;  // at a corner of dM_j: y held, the fixed-P Hessian is exact
+  A = tet_jacobian(Mj_, X_ji, P_ij.elem(v));
+  b = beta_ * Ci_(v) / (ci_ * cj_);
+  a = (1.0 - alpha_) * Ci_(v) / (ci_ * ci_);
+  const Eigen::MatrixXd AT = A * T;
+  const Eigen::MatrixXd M = b * Eigen::MatrixXd::Identity(T.cols(), T.cols()) + a * AT.transpose() * AT;
+  S = T * M.ldlt().solve(T.transpose());
+  return true;
+}
+
+void DirectionalEnergy::add_coupling(const BarycentricMap& P_ij, const Eigen::MatrixXd& X_ji,
+                                     const std::vector<char>* held_ij,
+                                     const std::function<void(int, int, const Eigen::Matrix3d&)>& add) const {
+  const int ni = Mi_.num_vertices();
+  if (beta_ == 0 || alpha_ == 1 || P_ij.size() != ni) return;
+  // Residuals r1 = sqrt(b)(X_v - y), r2 = sqrt(a)(sum_k l_k X_ji(k) + A (y - y0) - V_i(v)):
+  // Gauss-Newton with y eliminated couples X_v and X_ji(k) by
+  // -2 (J_x^T J_y)(J_y^T J_y)^-1 (J_y^T J_k) = 2ab l_k S A^T.
+  for (int v = 0; v < ni; ++v) {
+    if (held_ij && (*held_ij)[v]) continue;
+    double a, b;
+    Eigen::Matrix3d A, S;
+    if (!forward_row_schur(v, P_ij, X_ji, a, b, A, S)) continue;
+    const Eigen::Matrix3d K = 2.0 * a * b * S * A.transpose();
+    for (int k = 0; k < 4; ++k)
+      if (P_ij.bary(v, k) != 0) add(v, Mj_.T(P_ij.elem(v), k), P_ij.bary(v, k) * K);
   }
 }
 
@@ -1533,6 +1562,89 @@ class SymmetricMapSolver {
     return newton_rows(value, hessian, pn, X, no, st.newton_seconds);
   }
 
+  // Ours (issue 19, SymmetricVolumeMapOptions::joint_xstep): both X-steps as one projected
+  // Newton step on Eq. 25 with both P's eliminated (coupled_newton.h). The X-step of each
+  // direction alone holds the other's X, but P_ij's rows tie X_ij to X_ji (E_Q of one
+  // direction, E_R of the other): moving X_ij(v) along with the corners of its image's tet
+  // in X_ji costs little, and the two separate steps each see only half of that motion.
+  // The coupling blocks (DirectionalEnergy::add_coupling) let one step take it whole.
+  // Returns Eq. 25 at the new X's, with the P's at their minimizers there.
+  double joint_x_step(bool fix_boundary, CoupledNewton& cn, SymmetricMapStage& st, double& grad_norm) {
+    const auto tx = Clock::now();
+    const std::vector<int>& rows1 = fix_boundary ? int1_ : all1_;
+    const std::vector<int>& rows2 = fix_boundary ? int2_ : all2_;
+    const int k1 = int(rows1.size()), k2 = int(rows2.size());
+    const std::vector<char>* keep1 = fix_boundary ? &bd1_ : nullptr;
+    const std::vector<char>* keep2 = fix_boundary ? &bd2_ : nullptr;
+    Eigen::MatrixXd Y12 = X12_, Y21 = X21_, G12, G21;
+    Eigen::VectorXd at;  // the z that the P's hold the minimizers for
+    auto scatter_p = [&](const Eigen::VectorXd& z) {
+      for (int q = 0; q < k1; ++q) Y12.row(rows1[q]) = z.segment<3>(3 * q).transpose();
+      for (int q = 0; q < k2; ++q) Y21.row(rows2[q]) = z.segment<3>(3 * (k1 + q)).transpose();
+      if (at.size() == z.size() && at == z) return;
+      const auto tp = Clock::now();
+      p12_.run(Y12, Y21, opt_.alpha, beta_, opt_.boundary_to_boundary, keep1, P12_0_, P12_);
+      p21_.run(Y21, Y12, opt_.alpha, beta_, opt_.boundary_to_boundary, keep2, P21_0_, P21_);
+      e12_.set_maps(P12_, P21_);
+      e21_.set_maps(P21_, P12_);
+      at = z;
+      st.time_pstep += seconds_since(tp);
+    };
+    NewtonValue f = [&](const Eigen::VectorXd& z, Eigen::VectorXd* g) {
+      scatter_p(z);
+      const double E = e12_.evaluate(Y12, g ? &G12 : nullptr) + e21_.evaluate(Y21, g ? &G21 : nullptr);
+      if (g) {
+        for (int q = 0; q < k1; ++q) g->segment<3>(3 * q) = G12.row(rows1[q]).transpose();
+        for (int q = 0; q < k2; ++q) g->segment<3>(3 * (k1 + q)) = G21.row(rows2[q]).transpose();
+      }
+      return E;
+    };
+    std::vector<Eigen::Triplet<double>> entries;
+    CoupledHessian h = [&](const Eigen::VectorXd& z, BlockHessian& H1, BlockHessian& H2,
+                           Eigen::SparseMatrix<double>& C) {
+      scatter_p(z);
+      e12_.add_hessian(Y12, H1);
+      e12_.add_eliminated_p_hessian(Y12, P12_, Y21, H1, keep1, keep2);
+      e21_.add_hessian(Y21, H2);
+      e21_.add_eliminated_p_hessian(Y21, P21_, Y12, H2, keep2, keep1);
+      entries.clear();
+      // C's rows: free vertices of M1 (X12), columns: of M2 (X21).
+      auto put = [&](int r1, int c2, const Eigen::Matrix3d& B) {
+        const int fr = H1.free_index(r1), fc = H2.free_index(c2);
+        if (fr < 0 || fc < 0) return;
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b) entries.emplace_back(3 * fr + a, 3 * fc + b, B(a, b));
+      };
+      e12_.add_coupling(P12_, Y21, keep1, [&](int v, int k, const Eigen::Matrix3d& B) { put(v, k, B); });
+      e21_.add_coupling(P21_, Y12, keep2,
+                        [&](int w, int k, const Eigen::Matrix3d& B) { put(k, w, B.transpose()); });
+      C.resize(3 * k1, 3 * k2);
+      C.setFromTriplets(entries.begin(), entries.end());
+    };
+    Eigen::VectorXd z(3 * (k1 + k2));
+    for (int q = 0; q < k1; ++q) z.segment<3>(3 * q) = X12_.row(rows1[q]).transpose();
+    for (int q = 0; q < k2; ++q) z.segment<3>(3 * (k1 + q)) = X21_.row(rows2[q]).transpose();
+    CoupledNewtonOptions no;
+    no.newton.max_iterations = opt_.newton_iterations;
+    no.newton.f_rel_tol = opt_.newton_rel_tol;
+    no.newton.grad_tol = 0;
+    const NewtonResult nr = cn.minimize(f, h, z, no);
+    scatter_p(z);
+    X12_ = Y12;
+    X21_ = Y21;
+    p_steps(fix_boundary, st);  // the P's at the new X's (the last trial may have been rejected)
+    st.newton_seconds[0] += nr.seconds_value;
+    st.newton_seconds[1] += nr.seconds_hessian;
+    st.newton_seconds[2] += nr.seconds_factor;
+    st.newton_seconds[3] += nr.seconds_solve;
+    st.time_xstep += seconds_since(tx);
+    st.lbfgs_iterations += nr.iterations;
+    st.evaluations += nr.evaluations;
+    st.cg_iterations += cn.cg_iterations();
+    grad_norm = nr.grad_norm;
+    return energy();
+  }
+
   Eigen::VectorXd pack() const {
     Eigen::VectorXd x(X12_.size() + X21_.size());
     x << Eigen::Map<const Eigen::VectorXd>(X12_.data(), X12_.size()),
@@ -1557,9 +1669,16 @@ class SymmetricMapSolver {
     double beta_prev = -1;  // beta of E_prev: the decrease rule compares energies of one Eq. 25
     // Newton: one pattern (and CHOLMOD analysis) per direction for the whole stage.
     std::unique_ptr<ProjectedNewton> n12, n21;
+    std::unique_ptr<CoupledNewton> joint;
     if (opt_.solver == XStepSolver::Newton) {
-      n12 = std::make_unique<ProjectedNewton>(BlockHessian(M1_.T, M1_.num_vertices(), fix_boundary ? int1_ : all1_));
-      n21 = std::make_unique<ProjectedNewton>(BlockHessian(M2_.T, M2_.num_vertices(), fix_boundary ? int2_ : all2_));
+      BlockHessian h12(M1_.T, M1_.num_vertices(), fix_boundary ? int1_ : all1_);
+      BlockHessian h21(M2_.T, M2_.num_vertices(), fix_boundary ? int2_ : all2_);
+      if (opt_.eliminate_p && opt_.joint_xstep) {
+        joint = std::make_unique<CoupledNewton>(std::move(h12), std::move(h21));
+      } else {
+        n12 = std::make_unique<ProjectedNewton>(std::move(h12));
+        n21 = std::make_unique<ProjectedNewton>(std::move(h21));
+      }
     }
     AndersonAcceleration aa(opt_.anderson_memory);
     Eigen::VectorXd plain;  // G(x_k) when X holds an accelerated proposal
@@ -1580,7 +1699,7 @@ class SymmetricMapSolver {
       }
       const Eigen::VectorXd x_k = opt_.anderson_memory > 0 ? pack() : Eigen::VectorXd();
       double gn = 0;
-      const double E = x_steps(fix_boundary, n12.get(), n21.get(), st, gn);
+      const double E = joint ? joint_x_step(fix_boundary, *joint, st, gn) : x_steps(fix_boundary, n12.get(), n21.get(), st, gn);
       ++global_iter_;
       ++st.iterations;
       st.energy = E;

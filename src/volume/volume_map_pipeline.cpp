@@ -249,6 +249,7 @@ nlohmann::json stages_json(const SymmetricVolumeMapResult& r) {
                       {"energy", s.energy}, {"n_inv_AB", s.inverted12}, {"n_inv_BA", s.inverted21},
                       {"seconds_P_step", s.time_pstep}, {"seconds_X_step", s.time_xstep},
                       {"solver_iterations", s.lbfgs_iterations}, {"evaluations", s.evaluations},
+                      {"cg_iterations", s.cg_iterations},
                       {"anderson_accepted", s.anderson_accepted}, {"anderson_rejected", s.anderson_rejected},
                       {"land_unprojected", s.land_unprojected},
                       {"newton_seconds", {{"energy", s.newton_seconds[0]}, {"hessian", s.newton_seconds[1]},

@@ -570,3 +570,69 @@ TEST(EliminatedPHessian, ReversibilityTermMatchesFiniteDifferencesAtAConsistentM
   EXPECT_GT((D - dense(Hfixed)).norm(), 0.1 * D.norm() / n);
   EXPECT_LT(eliminated_hessian_error(e, X, solve_p, D), 1e-5);
 }
+
+// The joint X-step's coupling (DirectionalEnergy::add_coupling): with P_ij's rows re-solved
+// at every X_ji, finite differences in X_ji of Eq. 25's gradient in X_ij are the blocks
+// add_coupling gives (P_ji held), at a map and its exact inverse: the residuals vanish,
+// where the Gauss-Newton elimination is exact (elsewhere it leaves out the residuals times
+// the change of X_ji's Jacobian).
+TEST(EliminatedPHessian, CouplingMatchesFiniteDifferences) {
+  const TetMesh A = grid_box(2, 2, 1, 1.0, 0.6, 0.5);
+  TetMesh B = grid_box(2, 2, 2, 3.0, 3.0, 3.0);
+  B.V.array() -= 1.0;
+  DirectionalEnergy e(A, B), other(B, A);
+  const double alpha = 0.3, beta = 7.0;
+  e.set_weights(alpha, beta, 0.0, 0.0);
+  Eigen::Matrix3d L;
+  L << 0.93, 0.11, -0.07, -0.05, 1.08, 0.13, 0.09, -0.12, 0.97;
+  const Eigen::RowVector3d c(0.031, -0.047, 0.019);
+  const Eigen::MatrixXd Xji = (B.V * L.transpose()).rowwise() + c;
+  std::mt19937 rng(11);
+  const Eigen::MatrixXd X = ((A.V.rowwise() - c) * L.inverse().transpose());
+  const double r = beta * e.volume_i() / ((1 - alpha) * other.volume_i());
+  BarycentricMap Pij;
+  Pij.elem.setZero(A.num_vertices());
+  Pij.bary.setConstant(A.num_vertices(), 4, 0.25);
+  e.set_maps(Pij, random_map(B.num_vertices(), A.num_tets(), rng));
+  // The tets of the minimizers at Xji (strictly inside them), kept under the perturbations.
+  for (int v = 0; v < A.num_vertices(); ++v) {
+    const Eigen::RowVector4d l = solve_row(B, Xji, 0, X.row(v).transpose(), A.V.row(v).transpose(), r);
+    Eigen::Vector3d y = Eigen::Vector3d::Zero();
+    for (int k = 0; k < 4; ++k) y += l(k) * B.V.row(B.T(0, k)).transpose();
+    Pij.elem(v) = locate(B, y);
+    ASSERT_GE(Pij.elem(v), 0) << "row " << v << " outside M_j";
+  }
+  auto solve_p = [&](const Eigen::MatrixXd& Y) {
+    for (int v = 0; v < A.num_vertices(); ++v)
+      Pij.bary.row(v) = solve_row(B, Y, Pij.elem(v), X.row(v).transpose(), A.V.row(v).transpose(), r);
+    e.set_forward_map(Pij);
+  };
+  solve_p(Xji);
+  const int na = A.num_vertices(), nb = B.num_vertices();
+  Eigen::MatrixXd C = Eigen::MatrixXd::Zero(3 * na, 3 * nb);
+  e.add_coupling(Pij, Xji, nullptr,
+                 [&](int v, int k, const Eigen::Matrix3d& Bk) { C.block<3, 3>(3 * v, 3 * k) += Bk; });
+  const double h = 1e-6;
+  double err = 0, scale = 0;
+  for (int i = 0; i < 3 * nb; ++i) {
+    Eigen::MatrixXd Yp = Xji, Ym = Xji, Gp, Gm;
+    Yp(i / 3, i % 3) += h;
+    Ym(i / 3, i % 3) -= h;
+    solve_p(Yp);
+    e.evaluate(X, &Gp);
+    solve_p(Ym);
+    e.evaluate(X, &Gm);
+    for (int j = 0; j < 3 * na; ++j) {
+      const double fd = (Gp(j / 3, j % 3) - Gm(j / 3, j % 3)) / (2 * h);
+      err = std::max(err, std::abs(fd - C(j, i)));
+      scale = std::max(scale, std::abs(fd));
+    }
+  }
+  EXPECT_GT(scale, 0.0);
+  EXPECT_LT(err / scale, 1e-5);
+  // Held rows give no coupling.
+  const std::vector<char> held(na, 1);
+  int calls = 0;
+  e.add_coupling(Pij, Xji, &held, [&](int, int, const Eigen::Matrix3d&) { ++calls; });
+  EXPECT_EQ(calls, 0);
+}

@@ -33,6 +33,18 @@ struct NewtonResult {
 using NewtonValue = std::function<double(const Eigen::VectorXd& x, Eigen::VectorXd* g)>;
 // Fills H (already zeroed) with a positive semi-definite Hessian approximation at x.
 using NewtonHessian = std::function<void(const Eigen::VectorXd& x, BlockHessian& H)>;
+// A Newton-type direction d at x with gradient g (timings and factorizations into res).
+using NewtonDirection =
+    std::function<void(const Eigen::VectorXd& x, const Eigen::VectorXd& g, Eigen::VectorXd& d, NewtonResult& res)>;
+
+// The descent loop shared by the Newton solvers: a direction per iteration, steepest descent
+// when it is not one, Armijo backtracking on f, the stopping rules of `opt`.
+NewtonResult newton_descent(const NewtonValue& f, const NewtonDirection& direction, Eigen::VectorXd& x,
+                            const NewtonOptions& opt);
+
+// Factors H into chol (its pattern analyzed), shifting H's diagonal when CHOLMOD finds it
+// indefinite (rounding) until it factors.
+void factor_shifted(BlockHessian& H, SparseCholesky& chol, NewtonResult& res);
 
 class ProjectedNewton {
  public:
@@ -49,7 +61,6 @@ class ProjectedNewton {
  private:
   BlockHessian H_;
   SparseCholesky chol_{SparseCholesky::Method::Supernodal, SparseCholesky::Ordering::NestedDissection};
-  Eigen::VectorXd g_, g_new_, x_new_, d_;
 };
 
 }  // namespace shapemap

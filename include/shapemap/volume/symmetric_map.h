@@ -27,6 +27,7 @@
 #include <memory>
 #include <string>
 #include <utility>
+#include <functional>
 #include <vector>
 
 namespace shapemap {
@@ -69,6 +70,10 @@ struct SymmetricVolumeMapOptions {
   // E_Q and E_R: 1/11 at beta = 5, alpha = 0.5), so stage 4 crawled on real pairs. Newton
   // solver only.
   bool eliminate_p = true;
+  // Ours (issue 19): with eliminate_p, both directions' X-steps as one Newton step with the
+  // blocks that couple X_ij and X_ji through the eliminated P's (coupled_newton.h); false:
+  // one step per direction, each holding the other's X.
+  bool joint_xstep = true;
   int xstep_iterations = 15;   // L-BFGS iterations per X-step (Sec. 5.2; not in the paper:
                                // 15 gave the same maps as 30 on a 30k-tet pair at half the
                                // cost, docs/methods.md)
@@ -138,6 +143,7 @@ struct SymmetricMapStage {
                                              // evaluations, Hessian assembly, factorization,
                                              // solves
   int anderson_accepted = 0, anderson_rejected = 0;  // accelerated points kept / undone
+  int cg_iterations = 0;     // joint X-steps: conjugate-gradient iterations of the solves
   int land_unprojected = 0;  // landing: boundary vertices put inside M_j or left, not on dM_j
   std::string stop_reason;   // "gradient", "decrease", "iterations" (stages 2, 4)
   std::vector<double> energy_history, gradient_history;  // per outer iteration
@@ -261,6 +267,14 @@ class DirectionalEnergy {
                                 const Eigen::MatrixXd& X_ji, BlockHessian& H,
                                 const std::vector<char>* held_ij = nullptr,
                                 const std::vector<char>* held_ji = nullptr) const;
+  // Ours (issue 19): the coupling of X_ij and X_ji when both X-steps are one Newton step
+  // (the joint X-step). With row v of P_ij eliminated as above, Eq. 25's Gauss-Newton
+  // Hessian has the block 2ab l_k S A^T between X_ij(v) and corner k of y's tet in X_ji
+  // (l_k its barycentric coordinate, S = T (bI + a T^T A^T A T)^-1 T^T): passed to
+  // add(v, vertex of M_j, block) for every row of P_ij that is not held. The other
+  // direction's object gives the blocks of P_ji's rows.
+  void add_coupling(const BarycentricMap& P_ij, const Eigen::MatrixXd& X_ji, const std::vector<char>* held_ij,
+                    const std::function<void(int, int, const Eigen::Matrix3d&)>& add) const;
   // ARAP only (Sec. 5.3) on the tets incident to `free_vertices`.
   const ArapEnergy& arap() const { return arap_; }
   const TetBoundary& boundary_i() const { return bi_; }
@@ -271,6 +285,10 @@ class DirectionalEnergy {
 
  private:
   void projection_terms(const Eigen::MatrixXd& X, Eigen::MatrixXd* grad, bool all, Terms& t) const;
+  // Row v of P_ij eliminated: the weights a, b, X_ji's Jacobian A on y's tet and S (see
+  // add_coupling); false when y is held at a corner of dM_j.
+  bool forward_row_schur(int v, const BarycentricMap& P_ij, const Eigen::MatrixXd& X_ji, double& a, double& b,
+                         Eigen::Matrix3d& A, Eigen::Matrix3d& S) const;
 
   TetMesh Mi_, Mj_;
   ArapEnergy arap_;

@@ -1,0 +1,69 @@
+// Two-block projected Newton with a block-Jacobi preconditioned CG solve (coupled_newton.h).
+#include "shapemap/optim/coupled_newton.h"
+#include "shapemap/error.h"
+#include "shapemap/timing.h"
+#include <cmath>
+
+namespace shapemap {
+
+CoupledNewton::CoupledNewton(BlockHessian pattern1, BlockHessian pattern2)
+    : H1_(std::move(pattern1)), H2_(std::move(pattern2)) {
+  if (H1_.num_free() > 0) chol1_.analyze(H1_.matrix());
+  if (H2_.num_free() > 0) chol2_.analyze(H2_.matrix());
+}
+
+NewtonResult CoupledNewton::minimize(const NewtonValue& f, const CoupledHessian& hess, Eigen::VectorXd& x,
+                                     const CoupledNewtonOptions& opt) {
+  const int n1 = size1(), n2 = size2();
+  if (x.size() != n1 + n2) throw Error("CoupledNewton: x has the wrong length");
+  cg_total_ = 0;
+  NewtonDirection newton = [&](const Eigen::VectorXd& z, const Eigen::VectorXd& g, Eigen::VectorXd& d,
+                               NewtonResult& res) {
+    auto t = Clock::now();
+    H1_.set_zero();
+    H2_.set_zero();
+    hess(z, H1_, H2_, C_);
+    res.seconds_hessian += seconds_since(t);
+    if (n1 > 0) factor_shifted(H1_, chol1_, res);
+    if (n2 > 0) factor_shifted(H2_, chol2_, res);
+    t = Clock::now();
+    if (C_.rows() != n1 || C_.cols() != n2) throw Error("CoupledNewton: the coupling block has the wrong size");
+    auto apply = [&](const Eigen::VectorXd& p, Eigen::VectorXd& q) {
+      q.resize(n1 + n2);
+      q.head(n1) = H1_.multiply(p.head(n1)) + C_ * p.tail(n2);
+      q.tail(n2) = H2_.multiply(p.tail(n2)) + C_.transpose() * p.head(n1);
+    };
+    auto precondition = [&](const Eigen::VectorXd& r, Eigen::VectorXd& s) {
+      s.resize(n1 + n2);
+      if (n1 > 0) s.head(n1) = chol1_.solve(Eigen::VectorXd(r.head(n1)));
+      if (n2 > 0) s.tail(n2) = chol2_.solve(Eigen::VectorXd(r.tail(n2)));
+    };
+    // PCG on [H1 C; C^T H2] d = -g from d = 0.
+    Eigen::VectorXd r = -g, s, p, q;
+    d.setZero(n1 + n2);
+    precondition(r, s);
+    p = s;
+    double rs = r.dot(s);
+    const double rs0 = rs;
+    for (int k = 0; k < opt.cg_iterations && rs > opt.cg_rel_tol * opt.cg_rel_tol * rs0; ++k) {
+      apply(p, q);
+      const double pq = p.dot(q);
+      if (!(pq > 0)) {  // rounding on a semi-definite system: keep what we have
+        if (k == 0) d = p;
+        break;
+      }
+      const double a = rs / pq;
+      d += a * p;
+      r -= a * q;
+      precondition(r, s);
+      const double rs_new = r.dot(s);
+      p = s + (rs_new / rs) * p;
+      rs = rs_new;
+      ++cg_total_;
+    }
+    res.seconds_solve += seconds_since(t);
+  };
+  return newton_descent(f, newton, x, opt.newton);
+}
+
+}  // namespace shapemap
