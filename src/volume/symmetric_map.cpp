@@ -1462,11 +1462,14 @@ class SymmetricMapSolver {
 
   // P-steps of both directions (Algorithm 1 lines 8 / 18; boundary rows restored in stage
   // 2, line 10), then the X-step energies take the new P.
-  void p_steps(bool fix_boundary, SymmetricMapStage& st) {
+  void p_steps(bool fix_boundary, SymmetricMapStage& st) { p_steps_at(X12_, X21_, fix_boundary, st); }
+  // Both P-steps at the maps X12, X21 (the iterate's, or a Newton trial's).
+  void p_steps_at(const Eigen::MatrixXd& X12, const Eigen::MatrixXd& X21, bool fix_boundary,
+                  SymmetricMapStage& st) {
     const auto tp = Clock::now();
-    p12_.run(X12_, X21_, opt_.alpha, beta_, opt_.boundary_to_boundary, fix_boundary ? &bd1_ : nullptr,
+    p12_.run(X12, X21, opt_.alpha, beta_, opt_.boundary_to_boundary, fix_boundary ? &bd1_ : nullptr,
              P12_0_, P12_);
-    p21_.run(X21_, X12_, opt_.alpha, beta_, opt_.boundary_to_boundary, fix_boundary ? &bd2_ : nullptr,
+    p21_.run(X21, X12, opt_.alpha, beta_, opt_.boundary_to_boundary, fix_boundary ? &bd2_ : nullptr,
              P21_0_, P21_);
     e12_.set_maps(P12_, P21_);
     e21_.set_maps(P21_, P12_);
@@ -1528,26 +1531,19 @@ class SymmetricMapSolver {
                                   SymmetricMapStage& st) {
     DirectionalEnergy& e = dir == 0 ? e12_ : e21_;
     DirectionalEnergy& other = dir == 0 ? e21_ : e12_;
-    PStep& pstep = dir == 0 ? p12_ : p21_;
     Eigen::MatrixXd& X = dir == 0 ? X12_ : X21_;
     const Eigen::MatrixXd& Xji = dir == 0 ? X21_ : X12_;
-    BarycentricMap& P = dir == 0 ? P12_ : P21_;
-    const BarycentricMap& P0 = dir == 0 ? P12_0_ : P21_0_;
+    const BarycentricMap& P = dir == 0 ? P12_ : P21_;
     const std::vector<char>* keep = fix_boundary ? (dir == 0 ? &bd1_ : &bd2_) : nullptr;
-    PStep& pstep_ji = dir == 0 ? p21_ : p12_;
-    BarycentricMap& Pji = dir == 0 ? P21_ : P12_;
-    const BarycentricMap& Pji0 = dir == 0 ? P21_0_ : P12_0_;
     const std::vector<char>* keep_ji = fix_boundary ? (dir == 0 ? &bd2_ : &bd1_) : nullptr;
     Eigen::MatrixXd P_at;  // the X that P holds the minimizer for
     auto update_p = [&](const Eigen::MatrixXd& Y) {
       if (P_at.rows() == Y.rows() && P_at == Y) return;
-      const auto tp = Clock::now();
-      pstep.run(Y, Xji, opt_.alpha, beta_, opt_.boundary_to_boundary, keep, P0, P);
-      pstep_ji.run(Xji, Y, opt_.alpha, beta_, opt_.boundary_to_boundary, keep_ji, Pji0, Pji);
-      e.set_maps(P, Pji);
-      other.set_maps(Pji, P);
+      if (dir == 0)
+        p_steps_at(Y, Xji, fix_boundary, st);
+      else
+        p_steps_at(Xji, Y, fix_boundary, st);
       P_at = Y;
-      st.time_pstep += seconds_since(tp);
     };
     // Eq. 25 up to terms constant in X_ij (the other direction's E_ARAP and E_P)
     auto value = [&](const Eigen::MatrixXd& Y, Eigen::MatrixXd* g) {
@@ -1582,13 +1578,8 @@ class SymmetricMapSolver {
       for (int q = 0; q < k1; ++q) Y12.row(rows1[q]) = z.segment<3>(3 * q).transpose();
       for (int q = 0; q < k2; ++q) Y21.row(rows2[q]) = z.segment<3>(3 * (k1 + q)).transpose();
       if (at.size() == z.size() && at == z) return;
-      const auto tp = Clock::now();
-      p12_.run(Y12, Y21, opt_.alpha, beta_, opt_.boundary_to_boundary, keep1, P12_0_, P12_);
-      p21_.run(Y21, Y12, opt_.alpha, beta_, opt_.boundary_to_boundary, keep2, P21_0_, P21_);
-      e12_.set_maps(P12_, P21_);
-      e21_.set_maps(P21_, P12_);
+      p_steps_at(Y12, Y21, fix_boundary, st);
       at = z;
-      st.time_pstep += seconds_since(tp);
     };
     NewtonValue f = [&](const Eigen::VectorXd& z, Eigen::VectorXd* g) {
       scatter_p(z);
