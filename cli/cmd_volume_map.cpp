@@ -262,8 +262,8 @@ void add_alternation_options(CLI::App* app, VolumeMapArgs& a) {
       ->check(non_negative())
       ->capture_default_str();
   app->add_option("--newton-iterations-final", a.opt.newton_iterations_final,
-                  "Newton iterations per X-step at most once beta and gamma are final (ours; 0 = "
-                  "--newton-iterations)")
+                  "Newton iterations per X-step at most in stage 4 once beta and gamma are final (ours; "
+                  "0 = --newton-iterations)")
       ->check(non_negative())
       ->capture_default_str();
   app->add_option("--anderson", a.opt.anderson_memory,
@@ -314,11 +314,6 @@ void add_post_repair_and_landing_options(CLI::App* app, VolumeMapArgs& a) {
                     "points just inside it (ours; 0 = off)")
       ->capture_default_str()
       ->check(CLI::Range(0, 50));
-  app->add_option("--land-relax-distortion", a.opt.land_relax_distortion,
-                  "Landing, last step: interior vertices near tets with ARAP distortion (Eq. 19) above "
-                  "this relax with the inversion barrier (ours; 0 = off)")
-      ->check(non_negative())
-      ->capture_default_str();
   app->add_option("--land-untangle-rounds", a.opt.land_untangle_rounds,
                   "Landing, last: sweeps that untangle the located map's inverted tets inside the "
                   "target (max-min ascent of tet volumes; ours; 0 = off)")

@@ -1066,7 +1066,6 @@ class Landing {
       untangle_located(surface_rows, best_map, best, best_count);
       if (best_count > 0) lift_flat_tets(surface_rows, best_map, best, best_count);
     }
-    if (landed && opt_.land_relax_distortion > 0) relax_distorted(surface_rows, best_map, best, best_count);
     X = best;
     located = best_map;
     return landed;
@@ -1224,51 +1223,6 @@ class Landing {
     };
     untangle_tets(e_.arap().tets(), rules, opt_.land_untangle_rounds, Y);
     keep_if_fewer(surface_rows, Y, best_map, best, best_count);
-  }
-
-  // Step 7 (ours): the untangling and the repairs move vertices towards their neighbours
-  // (or along ARAP's gradient with the tets' volumes unbounded above), which stretches a few
-  // slivers of M_i 10-300x in volume (busts A -> B: 50 of 30k tets held 44% of E_ARAP).
-  // The interior vertices within 2 rings of tets with f_ARAP > land_relax_distortion relax
-  // on the X-step objective with the inversion barrier on every positive tet (none turns
-  // over) and the boundary held; the result, located in M_j, is kept when it inverts no
-  // more tets and lowers E_ARAP.
-  void relax_distorted(const std::vector<int>& surface_rows, BarycentricMap& best_map, Eigen::MatrixXd& best,
-                       int& best_count) {
-    const ArapEnergy& arap = e_.arap();
-    const Eigen::MatrixXi& T = arap.tets();
-    std::vector<char> in(Mi_.num_vertices(), 0);
-    for (int t = 0; t < T.rows(); ++t)
-      if (arap_distortion(tet_jacobian(Mi_, best, t)) > opt_.land_relax_distortion)
-        for (int c = 0; c < 4; ++c) in[T(t, c)] = 1;
-    for (int ring = 0; ring < 2; ++ring) {
-      std::vector<char> grown = in;
-      for (int v = 0; v < Mi_.num_vertices(); ++v)
-        if (in[v])
-          for (int w : vv_[v]) grown[w] = 1;
-      in.swap(grown);
-    }
-    std::vector<int> free;
-    for (int v = 0; v < Mi_.num_vertices(); ++v)
-      if (in[v] && !on_bd_[v]) free.push_back(v);
-    st_.land_relaxed += int(free.size());
-    if (free.empty()) return;
-    Eigen::MatrixXd Y = best;
-    barrier_.activate_positive(Y);
-    e_.set_barrier(&barrier_);
-    relax(Y, free, e_.gamma());
-    e_.set_barrier(nullptr);
-    std::vector<int> rows;
-    for (int v : surface_rows)
-      if (Y.row(v) == best.row(v)) rows.push_back(v);
-    BarycentricMap m = locate_in_tets(Mj_, Y, rows);
-    Eigen::MatrixXd P = map_positions(m, Mj_.V, Mj_.T);
-    const int c = count_inverted(arap, P);
-    if (c <= best_count && arap.energy(P) < arap.energy(best)) {
-      best_count = c;
-      best_map = std::move(m);
-      best = std::move(P);
-    }
   }
 
   double mean_target_edge() const {
@@ -1486,10 +1440,11 @@ class SymmetricMapSolver {
     return opt_.gamma_start + (opt_.gamma - opt_.gamma_start) * t;
   }
   // Newton iterations of this X-step (SymmetricVolumeMapOptions::newton_iterations_final).
-  int newton_iterations_now() const {
+  int newton_iterations_now(bool fix_boundary) const {
     const int end = std::max(0, opt_.beta_ramp_iterations);
     const bool final_weights = beta_ == beta_at(end) && gamma_ == gamma_at(end);
-    return final_weights && opt_.newton_iterations_final > 0 ? opt_.newton_iterations_final : opt_.newton_iterations;
+    return !fix_boundary && final_weights && opt_.newton_iterations_final > 0 ? opt_.newton_iterations_final
+                                                                               : opt_.newton_iterations;
   }
   void set_weights() {
     e12_.set_weights(opt_.alpha, beta_, gamma_, opt_.backward_projection_scale);
@@ -1535,7 +1490,7 @@ class SymmetricMapSolver {
     LbfgsResult r1, r2;
     if (opt_.solver == XStepSolver::Newton) {
       NewtonOptions no;
-      no.max_iterations = newton_iterations_now();
+      no.max_iterations = newton_iterations_now(fix_boundary);
       no.f_rel_tol = opt_.newton_rel_tol;
       no.grad_tol = 0;
       // (Running the two directions on one thread each was 1.3x faster but not
@@ -1668,7 +1623,7 @@ class SymmetricMapSolver {
     for (int q = 0; q < k1; ++q) z.segment<3>(3 * q) = X12_.row(rows1[q]).transpose();
     for (int q = 0; q < k2; ++q) z.segment<3>(3 * (k1 + q)) = X21_.row(rows2[q]).transpose();
     CoupledNewtonOptions no;
-    no.newton.max_iterations = newton_iterations_now();
+    no.newton.max_iterations = newton_iterations_now(fix_boundary);
     no.newton.f_rel_tol = opt_.newton_rel_tol;
     no.newton.grad_tol = 0;
     const NewtonResult nr = cn.minimize(f, h, z, no);
