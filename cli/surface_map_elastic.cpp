@@ -50,6 +50,10 @@ void add_elastic_options(CLI::App* app, ElasticSettings& o, std::string& truth_a
                 "symmetric Dirichlet energy with a barrier on the mapped triangles' signed "
                 "area, and keeps a region's change only where the fold count falls; "
                 "docs/methods.md)");
+  app->add_flag("--elastic-no-wide-untangle", [&o](std::int64_t) { o.wide_untangle = false; },
+                "elastic: skip the untangling's second pass (default: what the first pass leaves, "
+                "mostly patches mapped mirrored, is untangled again over regions of 4 and 8 rings "
+                "with 200 sweeps, kept only where the fold count falls; docs/methods.md)");
   app->add_option("--elastic-inner-iterations", o.inner_iterations,
                   "elastic: at most this many L-BFGS iterations per Y step (Sec. 5.1: 50)")
       ->check(non_negative());

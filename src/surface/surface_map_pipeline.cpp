@@ -6,6 +6,7 @@
 #include "shapemap/eval/surface_metrics.h"
 #include "shapemap/geometry/closest_point.h"
 #include "shapemap/surface/elastic.h"
+#include "shapemap/surface/refine_surface_maps.h"
 #include "shapemap/surface/untangle.h"
 #include <algorithm>
 #include <chrono>
@@ -214,45 +215,6 @@ std::string elastic_initial_maps(const TriMesh& A, const TriMesh& B, const Surfa
          " (B->A by closest point on the mapped surface)";
 }
 
-ElasticOptions elastic_options(const ElasticSettings& o, const TriMesh& A, const TriMesh& B,
-                               const BarycentricMap& initAB, const BarycentricMap& initBA, bool q_given,
-                               std::string& eta_choice) {
-  ElasticOptions eo;
-  if (o.preset == "near-isometric") eo = ElasticOptions::near_isometric();
-  else if (o.preset == "degenerate") eo = ElasticOptions::degenerate_init();
-  else if (o.preset != "auto" && o.preset != "non-isometric")
-    throw InputError("elastic preset " + o.preset + ": expected auto, non-isometric, near-isometric or degenerate");
-  const bool bij = !o.injective;
-  eta_choice = o.preset;
-  if (o.eta >= 0) {
-    eo.eta = o.eta;
-    eta_choice = "--elastic-eta";
-  } else if (o.preset == "auto") {
-    // A Q made here by closest point is not an initial map of the user's: only P and a
-    // given or BIM-computed Q count.
-    const BendingWeightChoice c =
-        bending_weight_for_initial_maps(A, B, initAB, bij && q_given ? initBA : BarycentricMap{}, eo.eta);
-    eo.eta = c.eta;
-    eta_choice = "auto: " + std::to_string(c.flipped) + " flipped and " + std::to_string(c.degenerate) +
-                 " collapsed triangles in the initial maps -> " +
-                 (c.flipped + c.degenerate > 0 ? "degenerate (Sec. 5.2)" : "non-isometric");
-  }
-  eo.alpha = o.alpha;
-  eo.max_outer_iterations = o.iterations;
-  eo.model = bij ? ElasticModel::Bijective : ElasticModel::Injective;
-  eo.normalize_area = !o.partial;
-  eo.keep_no_worse = !o.keep_worse;
-  if (o.beta_start >= 0) eo.beta_start = std::min(o.beta_start, eo.beta_end);
-  if (o.log_eps >= 0) eo.log_eps = o.log_eps;
-  eo.keep_orientation = o.keep_orientation;
-  eo.gamma_ramp = o.gamma_ramp;
-  eo.safe_projection = !o.plain_projection;
-  if (o.inner_iterations >= 0) eo.inner_max_iterations = o.inner_iterations;
-  if (o.inner_f_tol >= 0) eo.inner_f_tol = o.inner_f_tol;
-  if (o.ramp_inner_f_tol >= 0) eo.inner_f_tol_ramp = o.ramp_inner_f_tol;
-  return eo;
-}
-
 nlohmann::json elastic_parameters_json(const ElasticOptions& eo, const std::string& eta_choice) {
   const bool bij = eo.model == ElasticModel::Bijective;
   return {{"model", bij ? "bijective (Eq. 6)" : "injective (Eq. 4)"},
@@ -419,6 +381,15 @@ void guard_warnings(const ElasticResult& r, bool bij, SurfaceMapRun& run) {
   }
 }
 
+// report.json "elastic.untangle.AB" (and BA, wide.AB, wide.BA): one untangling pass of one map.
+nlohmann::json untangle_json_of(const UntangleResult& u) {
+  return nlohmann::json{{"bad_triangles_before", u.before.bad()}, {"flipped_before", u.before.flipped},
+                        {"collapsed_before", u.before.degenerate}, {"bad_triangles_after", u.after.bad()},
+                        {"flipped_after", u.after.flipped}, {"collapsed_after", u.after.degenerate},
+                        {"regions", u.regions}, {"regions_kept", u.regions_kept},
+                        {"vertices_moved", u.vertices_moved}, {"seconds", u.seconds}};
+}
+
 void run_elastic(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& req, const BarycentricMap* truth,
                  const ProgressCallback& progress, SurfaceMapRun& run) {
   const bool bij = !req.elastic.injective;
@@ -429,24 +400,25 @@ void run_elastic(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& re
   bool q_given = true;
   const std::string init_kind = elastic_initial_maps(A, B, req, progress, run, initAB, initBA, q_given);
   std::string eta_choice;
-  ElasticOptions eo = elastic_options(req.elastic, RA, RB, initAB, initBA, q_given, eta_choice);
+  ElasticOptions eo = elastic_options_from_settings(req.elastic, RA, RB, initAB, initBA, q_given, eta_choice);
   eo.progress = progress;
-  ElasticResult r = elastic_correspondence(RA, RB, initAB, initBA, eo);
-  if (!r.map_AB.bary.allFinite() || !r.Y.allFinite()) throw Error("elastic: non-finite result");
-  nlohmann::json untangle_json = nlohmann::json{{"enabled", req.elastic.untangle}};
-  if (req.elastic.untangle) {
-    // surface/untangle.h: the folds the refinement converged with, removed on the map itself;
-    // A -> B with the reverse map as the refinement returned it, then B -> A with the new A -> B
-    auto one = [&](const TriMesh& S, const TriMesh& T, BarycentricMap& M, const BarycentricMap* Q) {
-      const UntangleResult u = untangle_surface_map(S, T, M, UntangleOptions{}, Q);
-      return nlohmann::json{{"bad_triangles_before", u.before.bad()}, {"flipped_before", u.before.flipped},
-                            {"collapsed_before", u.before.degenerate}, {"bad_triangles_after", u.after.bad()},
-                            {"flipped_after", u.after.flipped}, {"collapsed_after", u.after.degenerate},
-                            {"regions", u.regions}, {"regions_kept", u.regions_kept},
-                            {"vertices_moved", u.vertices_moved}, {"seconds", u.seconds}};
-    };
-    untangle_json["AB"] = one(RA, RB, r.map_AB, bij ? &r.map_BA : nullptr);
-    if (bij) untangle_json["BA"] = one(RB, RA, r.map_BA, &r.map_AB);
+  SurfaceRefinementOptions ro;
+  ro.elastic = eo;
+  ro.untangle = req.elastic.untangle;
+  ro.wide_untangle = req.elastic.wide_untangle;
+  const SurfaceRefinement ref = refine_surface_maps(RA, RB, initAB, initBA, ro);
+  const ElasticResult& r = ref.elastic;
+  nlohmann::json untangle_json = nlohmann::json{{"enabled", ref.untangled}};
+  if (ref.untangled) {
+    const SurfaceUntangling& u = ref.untangling;
+    untangle_json["AB"] = untangle_json_of(u.AB);
+    if (bij) untangle_json["BA"] = untangle_json_of(u.BA);
+    // stage 3 (refine_surface_maps.h): the same over wide regions, for what stage 2 left
+    untangle_json["wide"]["enabled"] = u.wide;
+    if (u.wide) {
+      untangle_json["wide"]["AB"] = untangle_json_of(u.wide_AB);
+      if (bij) untangle_json["wide"]["BA"] = untangle_json_of(u.wide_BA);
+    }
   }
   run.AB_repaired = r.map_AB;
   if (bij) run.BA_repaired = r.map_BA;
@@ -462,6 +434,45 @@ void run_elastic(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& re
 }
 
 }  // namespace
+
+ElasticOptions elastic_options_from_settings(const ElasticSettings& o, const TriMesh& A, const TriMesh& B,
+                                             const BarycentricMap& initAB, const BarycentricMap& initBA,
+                                             bool q_given, std::string& eta_choice) {
+  ElasticOptions eo;
+  if (o.preset == "near-isometric") eo = ElasticOptions::near_isometric();
+  else if (o.preset == "degenerate") eo = ElasticOptions::degenerate_init();
+  else if (o.preset != "auto" && o.preset != "non-isometric")
+    throw InputError("elastic preset " + o.preset + ": expected auto, non-isometric, near-isometric or degenerate");
+  const bool bij = !o.injective;
+  eta_choice = o.preset;
+  if (o.eta >= 0) {
+    eo.eta = o.eta;
+    eta_choice = "--elastic-eta";
+  } else if (o.preset == "auto") {
+    // A Q made here by closest point is not an initial map of the user's: only P and a
+    // given or BIM-computed Q count.
+    const BendingWeightChoice c =
+        bending_weight_for_initial_maps(A, B, initAB, bij && q_given ? initBA : BarycentricMap{}, eo.eta);
+    eo.eta = c.eta;
+    eta_choice = "auto: " + std::to_string(c.flipped) + " flipped and " + std::to_string(c.degenerate) +
+                 " collapsed triangles in the initial maps -> " +
+                 (c.flipped + c.degenerate > 0 ? "degenerate (Sec. 5.2)" : "non-isometric");
+  }
+  eo.alpha = o.alpha;
+  eo.max_outer_iterations = o.iterations;
+  eo.model = bij ? ElasticModel::Bijective : ElasticModel::Injective;
+  eo.normalize_area = !o.partial;
+  eo.keep_no_worse = !o.keep_worse;
+  if (o.beta_start >= 0) eo.beta_start = std::min(o.beta_start, eo.beta_end);
+  if (o.log_eps >= 0) eo.log_eps = o.log_eps;
+  eo.keep_orientation = o.keep_orientation;
+  eo.gamma_ramp = o.gamma_ramp;
+  eo.safe_projection = !o.plain_projection;
+  if (o.inner_iterations >= 0) eo.inner_max_iterations = o.inner_iterations;
+  if (o.inner_f_tol >= 0) eo.inner_f_tol = o.inner_f_tol;
+  if (o.ramp_inner_f_tol >= 0) eo.inner_f_tol_ramp = o.ramp_inner_f_tol;
+  return eo;
+}
 
 std::shared_ptr<PreparedSurface> prepare_surface(const TriMesh& mesh, const std::string& name,
                                                  const BIMOptions& opt, bool strict,

@@ -1,11 +1,15 @@
 // The automatic initialization of symmetric volume maps: a surface map between the two
 // boundary surfaces, by blended intrinsic maps (blended-intrinsic-maps.txt, both
-// directions) refined by bijective elastic correspondence (elastic-correspondence.txt).
+// directions) refined by bijective elastic correspondence (elastic-correspondence.txt) with
+// the same final stages as `surface-map --method elastic` (refine_surface_maps.h: the collapse
+// guard and the untangling of the returned maps).
 // The volume paper (Sec. 5.1) takes such a surface map as given; this makes the volume
 // pipeline fully automatic.
 #include "shapemap/error.h"
 #include "shapemap/surface/bim.h"
 #include "shapemap/surface/elastic.h"
+#include "shapemap/surface/refine_surface_maps.h"
+#include "shapemap/surface/surface_map_pipeline.h"
 #include "shapemap/volume/symmetric_map.h"
 
 #include <sstream>
@@ -16,7 +20,8 @@ std::pair<BarycentricMap, BarycentricMap> surface_map_for_volumes(const TriMesh&
                                                                   const TriMesh& SB,
                                                                   const ProgressCallback& progress,
                                                                   std::string* used,
-                                                                  bool elastic_refinement) {
+                                                                  bool elastic_refinement,
+                                                                  const ElasticSettings* elastic) {
   BIMOptions bo;
   bo.symmetric = true;
   // Each direction's own blend, as measured for the volume maps (BIMOptions::reverse_candidates,
@@ -26,17 +31,27 @@ std::pair<BarycentricMap, BarycentricMap> surface_map_for_volumes(const TriMesh&
   std::pair<BarycentricMap, BarycentricMap> maps{bim.AB.map, bim.BA.map};
   if (used) *used = "BIM";
   if (!elastic_refinement) return maps;
-  ElasticOptions eo;
-  eo.progress = progress;
+  // The surface-map command's elastic defaults unless given, its bending weight rule included
+  // (Sec. 5.2: BIM maps usually have flipped triangles, so usually the smaller eta).
+  const ElasticSettings settings = elastic ? *elastic : ElasticSettings{};
+  SurfaceRefinementOptions ro;
+  ro.untangle = settings.untangle;
+  ro.wide_untangle = settings.wide_untangle;
+  std::string eta_choice;
   try {
-    // BIM maps usually have flipped triangles: Sec. 5.2's smaller bending weight (elastic.h).
-    eo.eta = bending_weight_for_initial_maps(SA, SB, bim.AB.map, bim.BA.map, eo.eta).eta;
-    ElasticResult el = elastic_correspondence(SA, SB, bim.AB.map, bim.BA.map, eo);
+    ro.elastic = elastic_options_from_settings(settings, SA, SB, bim.AB.map, bim.BA.map, true, eta_choice);
+    ro.elastic.progress = progress;
+    const SurfaceRefinement ref = refine_surface_maps(SA, SB, bim.AB.map, bim.BA.map, ro);
+    const ElasticResult& el = ref.elastic;
     if (el.map_AB.size() == SA.num_vertices() && el.map_BA.size() == SB.num_vertices()) {
       maps = {el.map_AB, el.map_BA};
       if (used) {
         std::ostringstream s;
-        s << "BIM + elastic (eta " << eo.eta << ", Sec. 5.2 rule)";
+        s << "BIM + elastic (eta " << ro.elastic.eta << ", " << eta_choice << ")";
+        if (ref.untangled)
+          s << " + untangle (flipped + collapsed A->B " << ref.untangling.AB.before.bad() << " -> "
+            << ref.untangling.final_AB.bad() << ", B->A " << ref.untangling.BA.before.bad() << " -> "
+            << ref.untangling.final_BA.bad() << ")";
         *used = s.str();
       }
     }

@@ -201,3 +201,6 @@ def test_elastic_untangle_option(surfaces):
         m = off.report["metrics"]["final"][d]
         assert u["bad_triangles_before"] == m["flipped_triangles"] + m["degenerate_triangles"]
         assert u["bad_triangles_after"] <= u["bad_triangles_before"]
+        w = on.report["elastic"]["untangle"]["wide"][d]
+        assert w["bad_triangles_before"] == u["bad_triangles_after"]
+        assert w["bad_triangles_after"] <= w["bad_triangles_before"]

@@ -1,8 +1,10 @@
 // The volume-map pipeline's pieces that moved out of the CLI: volume inputs from surfaces,
 // landmarks carried from a surface to its tet mesh (against brute force), input errors.
 #include "shapemap/error.h"
+#include "shapemap/eval/surface_distortion.h"
 #include "shapemap/generate.h"
 #include "shapemap/surface/surface_map_pipeline.h"
+#include "shapemap/volume/symmetric_map.h"
 #include "shapemap/volume/volume_map_pipeline.h"
 #include <gtest/gtest.h>
 
@@ -57,4 +59,36 @@ TEST(SurfaceMapPipeline, InvertingTheIdentityGivesTheIdentity) {
   const BarycentricMap inv = invert_surface_map(id, s, s);
   const Eigen::MatrixXd X = map_positions(inv, s.V, s.F);
   EXPECT_LT((X - s.V).rowwise().norm().maxCoeff(), 1e-9);
+}
+
+// Issue 20: volume-map --init auto gets the same surface maps as `surface-map --method elastic`
+// (refine_surface_maps.h: the collapse guard and the untangling stage), not the refinement
+// alone. On a generated pair whose refinement leaves folds, the automatic initialization's
+// maps are the surface-map command's (with the same BIM options), bit for bit, have no more
+// flipped or collapsed triangles than the refinement alone, and its description names the stage.
+TEST(VolumeMapPipeline, AutoInitSurfaceMapsAreTheSurfaceMapCommands) {
+  const GeneratedPair pair = make_creature_pair(2, PairKind::NonIsometric, 1200);
+  const TriMesh &A = pair.A, &B = pair.B;
+  auto bad = [](const TriMesh& S, const TriMesh& T, const BarycentricMap& P) {
+    const SurfaceDistortion d = surface_distortion(S, T, P);
+    return d.flipped + d.degenerate;
+  };
+  SurfaceMapRequest req;
+  req.method = "elastic";
+  req.bim.reverse_candidates = false;  // as surface_map_for_volumes
+  req.elastic.iterations = 2;  // a short refinement leaves folds for the stage to work on
+  req.elastic.untangle = false;
+  const SurfaceMapRun alone = run_surface_map(A, B, req);
+  const int bad_alone = bad(A, B, alone.AB) + bad(B, A, alone.BA);
+  ASSERT_GT(bad_alone, 0) << "the refinement alone must leave folds for this test to see the stage";
+  req.elastic.untangle = true;
+  const SurfaceMapRun full = run_surface_map(A, B, req);
+  std::string used;
+  const auto [sAB, sBA] = surface_map_for_volumes(A, B, {}, &used, true, &req.elastic);
+  EXPECT_NE(used.find("untangle"), std::string::npos) << used;
+  EXPECT_EQ(sAB.elem, full.AB.elem);
+  EXPECT_EQ(sAB.bary, full.AB.bary);
+  EXPECT_EQ(sBA.elem, full.BA.elem);
+  EXPECT_EQ(sBA.bary, full.BA.bary);
+  EXPECT_LT(bad(A, B, sAB) + bad(B, A, sBA), bad_alone);
 }

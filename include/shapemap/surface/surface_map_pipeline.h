@@ -9,6 +9,7 @@
 #include "shapemap/progress.h"
 #include "shapemap/repair.h"
 #include "shapemap/surface/bim.h"
+#include "shapemap/surface/elastic.h"
 #include <nlohmann/json.hpp>
 #include <memory>
 #include <string>
@@ -37,7 +38,18 @@ struct ElasticSettings {
   // Untangle the returned maps (surface/untangle.h): the images around flipped or collapsed
   // triangles slide on the target; kept per region only where the fold count falls.
   bool untangle = true;
+  // Then the same over wide regions with more sweeps, for what the first pass left (mostly
+  // patches mapped mirrored; refine_surface_maps.h, stage 3).
+  bool wide_untangle = true;
 };
+
+// The elastic refinement's options for `o` (the preset's bending weight, or with preset "auto"
+// Sec. 5.2's rule on the initial maps: bending_weight_for_initial_maps; Q counts only when
+// q_given, not when made here by closest point). eta_choice: how eta was chosen, for
+// report.json. Shared by the surface-map command and volume-map's automatic initialization.
+ElasticOptions elastic_options_from_settings(const ElasticSettings& o, const TriMesh& A, const TriMesh& B,
+                                             const BarycentricMap& initAB, const BarycentricMap& initBA,
+                                             bool q_given, std::string& eta_choice);
 
 // A surface after its input repairs, with BIM's per-surface stage (bim_prepare: geodesics,
 // sampling, features, flattening) done once, for every BIM map from or to it (batches).

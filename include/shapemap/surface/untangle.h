@@ -47,6 +47,20 @@ struct UntangleOptions {
   // free vertex, Q(y) interpolated linearly over y's face (the round trip P then Q, Sec. 3.2).
   double reverse_weight = 10;
   double degenerate_tol = 1e-12;  // collapsed: a <= tol a^ (as surface_distortion counts)
+  // Stage 3 of refine_surface_maps.h, for what the defaults leave: regions of 4 (then 8) rings
+  // and 200 sweeps from delta 0.3. A patch mapped mirrored needs both: the first try of a
+  // 2-ring region around it adds folds at its rim, which marks its faces as not to be tried
+  // again, and 80 sweeps do not carry a turn-over across a patch many rings wide. Measured
+  // best of rings 4 / 8, sweeps 200 / 300, delta_start 0.3 / 0.5 on five bench pairs
+  // (docs/methods.md).
+  static UntangleOptions wide() {
+    UntangleOptions o;
+    o.rings = 4;
+    o.rounds = 2;
+    o.sweeps = 200;
+    o.delta_start = 0.3;
+    return o;
+  }
   // Both surfaces are measured as unit-area copies (Sec. 5.2's global scale, and the frame in
   // which surface_distortion counts), so a rest triangle and its image compare at one scale.
 };

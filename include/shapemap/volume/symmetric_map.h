@@ -199,14 +199,18 @@ BarycentricMap surface_initial_map(const TetMesh& A, const TetMesh& B, const Tri
                                    const TriMesh& SB, const BarycentricMap& map_AB);
 
 // The automatic mode: a surface map between two closed genus-0 surfaces in both
-// directions (BIM, then elastic refinement when `elastic_refinement`). Returns
-// {map_AB, map_BA} (vertex -> face + barycentric). `used` receives a short description
-// of the method. (elastic_refinement: added, backward compatible.)
+// directions (BIM, then, when `elastic_refinement`, the elastic method exactly as
+// `surface-map --method elastic` runs it: surface/refine_surface_maps.h, refinement, collapse
+// guard and untangling). Returns {map_AB, map_BA} (vertex -> face + barycentric). `used`
+// receives a short description of the method. elastic: the elastic settings (null: the
+// surface-map command's defaults). (elastic_refinement, elastic: added, backward compatible.)
+struct ElasticSettings;
 std::pair<BarycentricMap, BarycentricMap> surface_map_for_volumes(const TriMesh& SA,
                                                                   const TriMesh& SB,
                                                                   const ProgressCallback& progress = {},
                                                                   std::string* used = nullptr,
-                                                                  bool elastic_refinement = true);
+                                                                  bool elastic_refinement = true,
+                                                                  const ElasticSettings* elastic = nullptr);
 
 // Locates positions X (k×3) in the tet mesh M: a containing tet (or the closest one);
 // rows listed in `boundary_rows` are instead snapped to the closest point of M's

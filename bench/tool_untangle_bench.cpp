@@ -1,0 +1,73 @@
+// The untangling stages of the elastic method (surface/refine_surface_maps.h, stages 2 and 3)
+// on saved maps, without rerunning the refinement (issue 20). Reads the input surfaces and the
+// maps of `surface-map --method elastic --elastic-no-untangle` (the inputs' numbering),
+// repairs the surfaces as the command does, runs the stages, and prints per direction the
+// flipped + collapsed triangles after each stage (on the repaired surfaces, as report.json,
+// and on the inputs, as bench/surface_real.sh) and the round trip: the mean over A's vertices
+// of |Q(P(x)) - x| over A's bounding-box diagonal, on the inputs, as bench/surface_real.sh.
+// Usage: tool_untangle_bench A B map_AB map_BA [--no-wide] [-o DIR]
+// (-o: writes the resulting map_AB.txt and map_BA.txt there, inputs' numbering).
+#include "shapemap/eval/surface_distortion.h"
+#include "shapemap/io.h"
+#include "shapemap/repair.h"
+#include "shapemap/surface/refine_surface_maps.h"
+
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <string>
+
+using namespace shapemap;
+
+namespace {
+int bad(const TriMesh& S, const TriMesh& T, const BarycentricMap& P) {
+  const SurfaceDistortion d = surface_distortion(S, T, P);
+  return d.flipped + d.degenerate;
+}
+double round_trip(const TriMesh& A, const TriMesh& B, const BarycentricMap& P, const BarycentricMap& Q) {
+  const Eigen::MatrixXd PQX = map_positions(P, map_positions(Q, A.V, A.F), B.F);
+  const double diag = (A.V.colwise().maxCoeff() - A.V.colwise().minCoeff()).norm();
+  return ((PQX - A.V).rowwise().norm() / diag).mean();
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 5) {
+    std::fprintf(stderr, "usage: tool_untangle_bench A B map_AB map_BA [--no-wide] [-o DIR]\n");
+    return 2;
+  }
+  SurfaceRefinementOptions opt;
+  std::string out;
+  for (int i = 5; i < argc; ++i) {
+    if (!std::strcmp(argv[i], "--no-wide")) opt.wide_untangle = false;
+    else if (!std::strcmp(argv[i], "-o") && i + 1 < argc) out = argv[++i];
+  }
+  const TriMesh A = read_surface(argv[1]), B = read_surface(argv[2]);
+  const SurfaceRepair rA = repair_surface(A, "A"), rB = repair_surface(B, "B");
+  BarycentricMap P = map_to_repaired(read_map(argv[3]), rA, rB, B);
+  BarycentricMap Q = map_to_repaired(read_map(argv[4]), rB, rA, A);
+  const TriMesh &RA = rA.mesh, &RB = rB.mesh;
+  auto line = [&](const char* what) {
+    const BarycentricMap iP = map_to_inputs(P, rA, rB, B), iQ = map_to_inputs(Q, rB, rA, A);
+    std::printf("%-12s repaired AB %4d BA %4d | inputs AB %4d BA %4d | round trip AB %.4f%% BA %.4f%%\n", what,
+                bad(RA, RB, P), bad(RB, RA, Q), bad(A, B, iP), bad(B, A, iQ), 100 * round_trip(A, B, iP, iQ),
+                100 * round_trip(B, A, iQ, iP));
+  };
+  line("refined");
+  const auto t0 = std::chrono::steady_clock::now();
+  const SurfaceUntangling u = untangle_surface_maps(RA, RB, P, Q, opt);
+  const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  line("untangled");
+  std::printf("stage 2: AB %d -> %d, BA %d -> %d\n", u.AB.before.bad(), u.AB.after.bad(), u.BA.before.bad(),
+              u.BA.after.bad());
+  if (u.wide)
+    std::printf("stage 3: AB %d -> %d (%d of %d regions kept), BA %d -> %d (%d of %d)\n", u.wide_AB.before.bad(),
+                u.wide_AB.after.bad(), u.wide_AB.regions_kept, u.wide_AB.regions, u.wide_BA.before.bad(),
+                u.wide_BA.after.bad(), u.wide_BA.regions_kept, u.wide_BA.regions);
+  std::printf("seconds %.1f\n", sec);
+  if (!out.empty()) {
+    write_map(out + "/map_AB.txt", map_to_inputs(P, rA, rB, B));
+    write_map(out + "/map_BA.txt", map_to_inputs(Q, rB, rA, A));
+  }
+  return 0;
+}

@@ -1,0 +1,57 @@
+// The elastic stage as shapemap returns it (issue 20), one call for every user of it: the
+// surface-map command's elastic method (surface_map_pipeline.h), the Python module through it,
+// and the automatic initialization of volume maps (volume/symmetric_map.h,
+// surface_map_for_volumes):
+//   1. Algorithm 1 of elastic-correspondence.txt with its collapse guard (elastic.h,
+//      ElasticOptions::keep_no_worse);
+//   2. the untangling of the returned maps on their targets (untangle.h) over local regions:
+//      A -> B with the reverse map as the refinement returned it, then B -> A with the new
+//      A -> B;
+//   3. the same untangling again over wide regions with more sweeps (UntangleOptions::wide),
+//      for what stage 2 leaves: mostly patches mapped mirrored (docs/methods.md).
+// Stages 2 and 3 keep a region's new images only where its fold count falls, so the returned
+// maps never have more flipped or collapsed triangles than the refinement's.
+#pragma once
+#include "shapemap/maps.h"
+#include "shapemap/mesh.h"
+#include "shapemap/surface/elastic.h"
+#include "shapemap/surface/untangle.h"
+
+namespace shapemap {
+
+struct SurfaceRefinementOptions {
+  ElasticOptions elastic;       // stage 1 (progress goes through elastic.progress)
+  bool untangle = true;         // stages 2 and 3 (--elastic-no-untangle turns both off)
+  UntangleOptions untangling;   // stage 2
+  bool wide_untangle = true;    // stage 3 (--elastic-no-wide-untangle turns it off)
+  UntangleOptions wide_untangling = UntangleOptions::wide();
+};
+
+// Stages 2 and 3, per direction (BA: only with a reverse map).
+struct SurfaceUntangling {
+  UntangleResult AB, BA;            // stage 2
+  bool wide = false;                // stage 3 ran
+  UntangleResult wide_AB, wide_BA;  // stage 3
+  FoldCounts final_AB, final_BA;    // the returned maps
+};
+
+struct SurfaceRefinement {
+  // elastic.map_AB / map_BA: the returned maps, untangled when `untangled`; the rest of
+  // `elastic` (history, guard, timings) is the refinement's.
+  ElasticResult elastic;
+  bool untangled = false;
+  SurfaceUntangling untangling;
+};
+
+// A, B: closed triangle meshes; init_AB: A's vertices onto B's faces; init_BA: B's vertices
+// onto A's faces (the bijective model; ignored by the injective one). Throws as
+// elastic_correspondence does, and Error on a non-finite refinement.
+SurfaceRefinement refine_surface_maps(const TriMesh& A, const TriMesh& B, const BarycentricMap& init_AB,
+                                      const BarycentricMap& init_BA, const SurfaceRefinementOptions& opt = {});
+
+// Stages 2 and 3 alone on P: A -> B and Q: B -> A (Q empty: A -> B only, without the
+// reversibility term), both changed in place.
+SurfaceUntangling untangle_surface_maps(const TriMesh& A, const TriMesh& B, BarycentricMap& P, BarycentricMap& Q,
+                                        const SurfaceRefinementOptions& opt = {});
+
+}  // namespace shapemap

@@ -1,0 +1,84 @@
+// Issue 20: the untangling stages of the elastic method (surface/refine_surface_maps.h) on a
+// generated pair: the ground-truth map with an annulus folded over (a patch mapped mirrored, as
+// camel-gallop 01 -> 04's head after the refinement) and a reverse map that agrees with it (the
+// inverse of the folded map), so that the round-trip term does not point the way out. Stage 2
+// (local regions) leaves much of the patch (762 -> 300 flipped or collapsed triangles when
+// written); stage 3 (wide regions) undoes a good part of the rest (-> 171), and neither stage
+// adds a fold.
+#include "shapemap/eval/surface_distortion.h"
+#include "shapemap/generate.h"
+#include "shapemap/geometry/closest_point.h"
+#include "shapemap/surface/refine_surface_maps.h"
+#include "shapemap/surface/surface_map_pipeline.h"
+
+#include <Eigen/Dense>
+#include <gtest/gtest.h>
+#include <cmath>
+#include <vector>
+
+using namespace shapemap;
+
+namespace {
+
+int bad(const TriMesh& S, const TriMesh& T, const BarycentricMap& P) {
+  const SurfaceDistortion d = surface_distortion(S, T, P);
+  return d.flipped + d.degenerate;
+}
+
+// The ground-truth map folded around vertex c: in the target's tangent plane at c's image, a
+// point at distance r from it moves to distance g(r): r up to a, then back to 2a - r up to b
+// (the annulus a < r < b turned over onto the disk: a patch mapped mirrored, with fold curves
+// at r = a and r = b, continuous everywhere), then out again to r at e, unchanged beyond.
+// Each moved point is put back onto the target by closest point. a, b, e: fractions of the
+// target's bounding-box diagonal.
+BarycentricMap fold_annulus(const GeneratedPair& pair, int c, double a, double b, double e) {
+  const TriMesh& B = pair.B;
+  const Eigen::MatrixXd Y = map_positions(pair.truth_AB, B.V, B.F);
+  const Eigen::MatrixXd N = face_normals(B.V, B.F);
+  const double diag = (B.V.colwise().maxCoeff() - B.V.colwise().minCoeff()).norm();
+  a *= diag;
+  b *= diag;
+  e *= diag;
+  const Eigen::Vector3d yc = Y.row(c).transpose(), nc = N.row(pair.truth_AB.elem(c)).transpose();
+  const ClosestPoint3 bvh(B.V, B.F);
+  BarycentricMap P = pair.truth_AB;
+  for (int v = 0; v < P.size(); ++v) {
+    const Eigen::Vector3d y = Y.row(v).transpose();
+    const Eigen::Vector3d d = (y - yc) - (y - yc).dot(nc) * nc;
+    const double r = d.norm();
+    if (r <= a || r >= e) continue;
+    const double g = r < b ? 2 * a - r : (2 * a - b) + (r - b) * (e - 2 * a + b) / (e - b);
+    const ClosestPointResult q = bvh.query(Eigen::Vector3d(y + (g / r - 1) * d));
+    P.elem(v) = q.elem;
+    P.bary.row(v) = q.bary.head<3>().transpose() / q.bary.head<3>().sum();
+  }
+  return P;
+}
+
+}  // namespace
+
+TEST(RefineSurfaceMaps, WideUntanglingUndoesAMirroredPatchTheLocalOneLeaves) {
+  const GeneratedPair pair = make_creature_pair(3, PairKind::NonIsometric, 4000);
+  const TriMesh &A = pair.A, &B = pair.B;
+  ASSERT_EQ(bad(A, B, pair.truth_AB), 0);
+  const BarycentricMap P0 = fold_annulus(pair, A.num_vertices() / 3, 0.05, 0.09, 0.16);
+  const BarycentricMap Q0 = invert_surface_map(P0, A, B);
+  const int bad0 = bad(A, B, P0);
+  ASSERT_GE(bad0, 400) << "the folded annulus is a patch of flipped triangles";
+  SurfaceRefinementOptions local;
+  local.wide_untangle = false;
+  BarycentricMap P = P0, Q = Q0;
+  const SurfaceUntangling u2 = untangle_surface_maps(A, B, P, Q, local);
+  EXPECT_FALSE(u2.wide);
+  EXPECT_LE(u2.final_AB.bad(), bad0);
+  ASSERT_GT(u2.final_AB.bad(), 100) << "stage 2 alone leaves the mirrored patch (" << bad0 << " at the start)";
+  P = P0;
+  Q = Q0;
+  const SurfaceUntangling u3 = untangle_surface_maps(A, B, P, Q);
+  EXPECT_TRUE(u3.wide);
+  EXPECT_EQ(u3.AB.after.bad(), u2.final_AB.bad());  // stage 2 is the same in both runs
+  EXPECT_LT(u3.final_AB.bad(), u2.final_AB.bad() * 2 / 3) << bad0;
+  EXPECT_EQ(u3.final_AB.bad(), bad(A, B, P));
+  EXPECT_LE(u3.final_BA.bad(), bad(B, A, Q0));
+  EXPECT_EQ(u3.final_BA.bad(), bad(B, A, Q));
+}
