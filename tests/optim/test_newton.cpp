@@ -70,12 +70,14 @@ TEST(BlockHessian, MatchesDenseAssemblyWithFixedVertices) {
 
 namespace {
 // A mass-spring-like convex energy on a tet mesh's edges plus a quartic pull: E(x) =
-// sum_edges |x_a - x_b - r_ab|^2 + sum_v |x_v - p_v|^4, with its exact Hessian (convex).
+// sum_edges |x_a - x_b - r_ab|^2 + sum_v |x_v - p_v|^4, with its exact Hessian (convex);
+// quartic = false: the pull |x_v - p_v|^2 (a quadratic).
 struct Springs {
   Eigen::MatrixXi T;
   std::vector<std::pair<int, int>> edges;
   Eigen::MatrixXd R, P;  // per edge rest vector; per vertex pull target
   int n;
+  bool quartic = true;
   double value(const Eigen::MatrixXd& X, Eigen::MatrixXd* G) const {
     double E = 0;
     if (G) G->setZero(n, 3);
@@ -90,8 +92,8 @@ struct Springs {
     }
     for (int v = 0; v < n; ++v) {
       const Eigen::RowVector3d d = X.row(v) - P.row(v);
-      E += d.squaredNorm() * d.squaredNorm();
-      if (G) G->row(v) += 4 * d.squaredNorm() * d;
+      E += quartic ? d.squaredNorm() * d.squaredNorm() : d.squaredNorm();
+      if (G) G->row(v) += quartic ? Eigen::RowVector3d(4 * d.squaredNorm() * d) : Eigen::RowVector3d(2 * d);
     }
     return E;
   }
@@ -103,7 +105,8 @@ struct Springs {
     }
     for (int v = 0; v < n; ++v) {
       const Eigen::Vector3d d = (X.row(v) - P.row(v)).transpose();
-      H.add_block(v, v, 4 * d.squaredNorm() * Eigen::Matrix3d::Identity() + 8 * d * d.transpose());
+      H.add_block(v, v, quartic ? Eigen::Matrix3d(4 * d.squaredNorm() * Eigen::Matrix3d::Identity() + 8 * d * d.transpose())
+                                : Eigen::Matrix3d(2 * Eigen::Matrix3d::Identity()));
     }
   }
 };
@@ -222,12 +225,15 @@ namespace {
 struct TiedSprings {
   Springs a = make_springs(4), b = make_springs(5);
   Eigen::MatrixXd S = Eigen::MatrixXd::Constant(5, 3, 0.3);
-  double k = 50, quartic = 1;
+  double k = 50;
+  void set_quartic(bool q) { a.quartic = b.quartic = q; }
+  static Eigen::MatrixXd rows(const Eigen::VectorXd& z, int block) {
+    return Eigen::Map<const Eigen::MatrixXd>(z.data() + 15 * block, 3, 5).transpose();
+  }
   double value(const Eigen::VectorXd& z, Eigen::VectorXd* g) const {
-    const Eigen::MatrixXd X1 = Eigen::Map<const Eigen::MatrixXd>(z.data(), 3, 5).transpose();
-    const Eigen::MatrixXd X2 = Eigen::Map<const Eigen::MatrixXd>(z.data() + 15, 3, 5).transpose();
+    const Eigen::MatrixXd X1 = rows(z, 0), X2 = rows(z, 1);
     Eigen::MatrixXd G1, G2;
-    double E = part(a, X1, G1) + part(b, X2, G2);
+    double E = a.value(X1, &G1) + b.value(X2, &G2);
     for (int v = 0; v < 5; ++v) {
       const Eigen::RowVector3d d = X1.row(v) - X2.row(v) - S.row(v);
       E += k * d.squaredNorm();
@@ -243,43 +249,14 @@ struct TiedSprings {
     }
     return E;
   }
-  // Springs with the quartic pull scaled by `quartic` (0: a quadratic pull |x - p|^2).
-  double part(const Springs& s, const Eigen::MatrixXd& X, Eigen::MatrixXd& G) const {
-    double E = 0;
-    G.setZero(5, 3);
-    for (size_t e = 0; e < s.edges.size(); ++e) {
-      const auto [p, q] = s.edges[e];
-      const Eigen::RowVector3d d = X.row(p) - X.row(q) - s.R.row(e);
-      E += d.squaredNorm();
-      G.row(p) += 2 * d;
-      G.row(q) -= 2 * d;
-    }
-    for (int v = 0; v < 5; ++v) {
-      const Eigen::RowVector3d d = X.row(v) - s.P.row(v);
-      E += quartic > 0 ? d.squaredNorm() * d.squaredNorm() : d.squaredNorm();
-      G.row(v) += quartic > 0 ? Eigen::RowVector3d(4 * d.squaredNorm() * d) : Eigen::RowVector3d(2 * d);
-    }
-    return E;
-  }
+  // The tie's coupling block C is left empty when !couple (the blocks' separate steps).
   void hessian(const Eigen::VectorXd& z, BlockHessian& H1, BlockHessian& H2, Eigen::SparseMatrix<double>& C,
                bool couple) const {
-    const Eigen::MatrixXd X1 = Eigen::Map<const Eigen::MatrixXd>(z.data(), 3, 5).transpose();
-    const Eigen::MatrixXd X2 = Eigen::Map<const Eigen::MatrixXd>(z.data() + 15, 3, 5).transpose();
-    for (int side = 0; side < 2; ++side) {
-      const Springs& s = side == 0 ? a : b;
-      BlockHessian& H = side == 0 ? H1 : H2;
-      const Eigen::MatrixXd& X = side == 0 ? X1 : X2;
-      for (const auto& [p, q] : s.edges) {
-        H.add_block(p, p, 2 * Eigen::Matrix3d::Identity());
-        H.add_block(q, q, 2 * Eigen::Matrix3d::Identity());
-        H.add_block(p, q, -2 * Eigen::Matrix3d::Identity());
-      }
-      for (int v = 0; v < 5; ++v) {
-        const Eigen::Vector3d d = (X.row(v) - s.P.row(v)).transpose();
-        H.add_block(v, v, quartic > 0 ? Eigen::Matrix3d(4 * d.squaredNorm() * Eigen::Matrix3d::Identity() + 8 * d * d.transpose())
-                                      : Eigen::Matrix3d(2 * Eigen::Matrix3d::Identity()));
-        H.add_diagonal(v, 2 * k);
-      }
+    a.hessian(rows(z, 0), H1);
+    b.hessian(rows(z, 1), H2);
+    for (int v = 0; v < 5; ++v) {
+      H1.add_diagonal(v, 2 * k);
+      H2.add_diagonal(v, 2 * k);
     }
     std::vector<Eigen::Triplet<double>> t;
     if (couple)
@@ -301,7 +278,7 @@ TEST(CoupledNewton, SolvesTheJointSystemWhereSeparateStepsCrawl) {
   o.cg_iterations = 200;
   o.cg_rel_tol = 1e-13;
   // A quadratic: one step with an exact inner solve lands on the minimizer.
-  ts.quartic = 0;
+  ts.set_quartic(false);
   for (bool couple : {true, false}) {
     CoupledNewton cn(BlockHessian(ts.a.T, 5, all), BlockHessian(ts.b.T, 5, all));
     Eigen::VectorXd z = Eigen::VectorXd::Zero(30), g;
@@ -318,7 +295,7 @@ TEST(CoupledNewton, SolvesTheJointSystemWhereSeparateStepsCrawl) {
     }
   }
   // The quartic pull: converges to the gradient tolerance in few steps.
-  ts.quartic = 1;
+  ts.set_quartic(true);
   CoupledNewton cn(BlockHessian(ts.a.T, 5, all), BlockHessian(ts.b.T, 5, all));
   Eigen::VectorXd z = Eigen::VectorXd::Zero(30);
   o.newton.max_iterations = 40;

@@ -468,6 +468,21 @@ double eliminated_hessian_error(DirectionalEnergy& e, const Eigen::MatrixXd& X,
   return err / scale;
 }
 
+// X_ji of the elimination tests: the affine map x -> L x + c (and its inverse), on a box
+// [-1, 2]^3 large enough that every row's minimizer lies inside it.
+struct TestAffine {
+  Eigen::Matrix3d L;
+  Eigen::RowVector3d c{0.031, -0.047, 0.019};
+  TestAffine() { L << 0.93, 0.11, -0.07, -0.05, 1.08, 0.13, 0.09, -0.12, 0.97; }
+  Eigen::MatrixXd map(const Eigen::MatrixXd& V) const { return (V * L.transpose()).rowwise() + c; }
+  Eigen::MatrixXd inverse(const Eigen::MatrixXd& V) const { return (V.rowwise() - c) * L.inverse().transpose(); }
+};
+TetMesh large_box(int n) {
+  TetMesh B = grid_box(n, n, n, 3.0, 3.0, 3.0);
+  B.V.array() -= 1.0;
+  return B;
+}
+
 Eigen::MatrixXd dense(const BlockHessian& H) {
   return Eigen::MatrixXd(Eigen::SparseMatrix<double>(H.matrix().selfadjointView<Eigen::Lower>()));
 }
@@ -477,17 +492,12 @@ Eigen::MatrixXd dense(const BlockHessian& H) {
 // P_ij eliminated (E_Q of this direction with E_R of the other), X_ji affine, every row's
 // minimizer inside M_j (a larger box): the Schur complement is exact.
 TEST(EliminatedPHessian, AuxiliaryTermMatchesFiniteDifferences) {
-  const TetMesh A = grid_box(3, 2, 2, 1.0, 0.6, 0.5);
-  TetMesh B = grid_box(3, 3, 3, 3.0, 3.0, 3.0);
-  B.V.array() -= 1.0;
+  const TetMesh A = grid_box(3, 2, 2, 1.0, 0.6, 0.5), B = large_box(3);
   DirectionalEnergy e(A, B), other(B, A);
   // alpha = 0: E_ARAP's projected Hessian (sarap.h) is not exact where tets are compressed
   const double alpha = 0.0, beta = 20.0;
   e.set_weights(alpha, beta, 0.0, 0.0);
-  Eigen::Matrix3d L;
-  L << 0.93, 0.11, -0.07, -0.05, 1.08, 0.13, 0.09, -0.12, 0.97;
-  const Eigen::RowVector3d c(0.031, -0.047, 0.019);
-  const Eigen::MatrixXd Xji = (B.V * L.transpose()).rowwise() + c;
+  const Eigen::MatrixXd Xji = TestAffine().map(B.V);
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> u(-0.08, 0.08);
   Eigen::MatrixXd X = apply(A.V);
@@ -527,9 +537,7 @@ TEST(EliminatedPHessian, AuxiliaryTermMatchesFiniteDifferences) {
 // P_ji eliminated (E_R of this direction with E_Q of the other) at a map and its exact inverse
 // (zero residuals, where the Gauss-Newton elimination is exact); the minimizers lie inside M_i.
 TEST(EliminatedPHessian, ReversibilityTermMatchesFiniteDifferencesAtAConsistentMap) {
-  TetMesh Mi = grid_box(3, 3, 3, 3.0, 3.0, 3.0);
-  Mi.V.array() -= 1.0;
-  const TetMesh Mj = grid_box(3, 2, 2, 1.0, 0.6, 0.5);
+  const TetMesh Mi = large_box(3), Mj = grid_box(3, 2, 2, 1.0, 0.6, 0.5);
   DirectionalEnergy e(Mi, Mj), other(Mj, Mi);
   const double alpha = 0.0, beta = 3.0;  // alpha = 0: as above
   e.set_weights(alpha, beta, 0.0, 0.0);
@@ -577,18 +585,13 @@ TEST(EliminatedPHessian, ReversibilityTermMatchesFiniteDifferencesAtAConsistentM
 // where the Gauss-Newton elimination is exact (elsewhere it leaves out the residuals times
 // the change of X_ji's Jacobian).
 TEST(EliminatedPHessian, CouplingMatchesFiniteDifferences) {
-  const TetMesh A = grid_box(2, 2, 1, 1.0, 0.6, 0.5);
-  TetMesh B = grid_box(2, 2, 2, 3.0, 3.0, 3.0);
-  B.V.array() -= 1.0;
+  const TetMesh A = grid_box(2, 2, 1, 1.0, 0.6, 0.5), B = large_box(2);
   DirectionalEnergy e(A, B), other(B, A);
   const double alpha = 0.3, beta = 7.0;
   e.set_weights(alpha, beta, 0.0, 0.0);
-  Eigen::Matrix3d L;
-  L << 0.93, 0.11, -0.07, -0.05, 1.08, 0.13, 0.09, -0.12, 0.97;
-  const Eigen::RowVector3d c(0.031, -0.047, 0.019);
-  const Eigen::MatrixXd Xji = (B.V * L.transpose()).rowwise() + c;
+  const TestAffine affine;
+  const Eigen::MatrixXd Xji = affine.map(B.V), X = affine.inverse(A.V);
   std::mt19937 rng(11);
-  const Eigen::MatrixXd X = ((A.V.rowwise() - c) * L.inverse().transpose());
   const double r = beta * e.volume_i() / ((1 - alpha) * other.volume_i());
   BarycentricMap Pij;
   Pij.elem.setZero(A.num_vertices());
