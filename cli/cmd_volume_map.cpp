@@ -319,6 +319,12 @@ void add_post_repair_and_landing_options(CLI::App* app, VolumeMapArgs& a) {
                   "target (max-min ascent of tet volumes; ours; 0 = off)")
       ->capture_default_str()
       ->check(CLI::Range(0, 1000));
+  app->add_option("--land-regularized-rings", a.opt.land_regularized_rings,
+                  "Landing, last: tets still inverted are untangled by the regularized energy of "
+                  "Garanzha et al. 2021 with 1, 2, 4, ... up to this many rings around them free "
+                  "(ours; 0 = off)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 64));
   app->add_option("--land-untangle-rings", a.opt.land_untangle_rings,
                   "Landing's untangling: when it stalls, vertices this many edges from the inverted "
                   "tets move too, raising their own tets' smallest volume (ours)")

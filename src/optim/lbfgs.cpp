@@ -83,4 +83,46 @@ LbfgsResult lbfgs_minimize(const Objective& f, Eigen::VectorXd& x, const LbfgsOp
   return res;
 }
 
+LbfgsResult minimize_rows(const std::function<double(const Eigen::MatrixXd&, Eigen::MatrixXd*)>& f,
+                          Eigen::MatrixXd& X, const std::vector<int>& free_rows, int iterations,
+                          int memory) {
+  const int k = int(free_rows.size());
+  Eigen::VectorXd x(3 * k);
+  for (int q = 0; q < k; ++q) x.segment<3>(3 * q) = X.row(free_rows[q]).transpose();
+  Eigen::MatrixXd Xf = X, G;
+  Eigen::VectorXd last_z, last_g;
+  double last_f = 0;
+  Objective obj = [&](const Eigen::VectorXd& z, Eigen::VectorXd& g) {
+    for (int q = 0; q < k; ++q) Xf.row(free_rows[q]) = z.segment<3>(3 * q).transpose();
+    double e = f(Xf, &G);
+    for (int q = 0; q < k; ++q) g.segment<3>(3 * q) = G.row(free_rows[q]).transpose();
+    last_z = z;
+    last_g = g;
+    last_f = e;
+    return e;
+  };
+  LbfgsOptions lo;
+  lo.max_iterations = iterations;
+  lo.memory = memory;
+  lo.grad_tol = 1e-10;
+  lo.f_decrease_tol = 1e-12;
+  LbfgsResult res;
+  if (k > 0 && iterations > 0) {
+    res = lbfgs_minimize(obj, x, lo);
+  } else {
+    Eigen::VectorXd g(3 * k);
+    res.f = obj(x, g);
+    res.grad_norm = k > 0 ? g.lpNorm<Eigen::Infinity>() : 0.0;
+  }
+  for (int q = 0; q < k; ++q) X.row(free_rows[q]) = x.segment<3>(3 * q).transpose();
+  // Report the Euclidean norm of the gradient at the final point (Sec. 5.4 (i)).
+  if (k > 0 && (last_z.size() != x.size() || last_z != x)) {
+    Eigen::VectorXd g(3 * k);
+    obj(x, g);
+  }
+  res.f = k > 0 ? last_f : res.f;
+  res.grad_norm = k > 0 ? last_g.norm() : 0.0;
+  return res;
+}
+
 }  // namespace shapemap

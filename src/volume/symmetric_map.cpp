@@ -9,6 +9,7 @@
 #include "shapemap/optim/lbfgs.h"
 #include "shapemap/optim/newton.h"
 #include "shapemap/timing.h"
+#include "shapemap/volume/foldover_free.h"
 #include "shapemap/volume/untangle.h"
 #include <Eigen/Dense>
 #include <algorithm>
@@ -705,50 +706,6 @@ class PStep {
   std::vector<ClosestPointResult> hits_;
 };
 
-// L-BFGS over the rows `free_rows` of X (others fixed) of an objective on the full X.
-// Returns the L-BFGS result (f and grad_norm at the final X).
-LbfgsResult minimize_rows(const std::function<double(const Eigen::MatrixXd&, Eigen::MatrixXd*)>& f,
-                          Eigen::MatrixXd& X, const std::vector<int>& free_rows, int iterations,
-                          int memory) {
-  const int k = int(free_rows.size());
-  Eigen::VectorXd x(3 * k);
-  for (int q = 0; q < k; ++q) x.segment<3>(3 * q) = X.row(free_rows[q]).transpose();
-  Eigen::MatrixXd Xf = X, G;
-  Eigen::VectorXd last_z, last_g;
-  double last_f = 0;
-  Objective obj = [&](const Eigen::VectorXd& z, Eigen::VectorXd& g) {
-    for (int q = 0; q < k; ++q) Xf.row(free_rows[q]) = z.segment<3>(3 * q).transpose();
-    double e = f(Xf, &G);
-    for (int q = 0; q < k; ++q) g.segment<3>(3 * q) = G.row(free_rows[q]).transpose();
-    last_z = z;
-    last_g = g;
-    last_f = e;
-    return e;
-  };
-  LbfgsOptions lo;
-  lo.max_iterations = iterations;
-  lo.memory = memory;
-  lo.grad_tol = 1e-10;
-  lo.f_decrease_tol = 1e-12;
-  LbfgsResult res;
-  if (k > 0 && iterations > 0) {
-    res = lbfgs_minimize(obj, x, lo);
-  } else {
-    Eigen::VectorXd g(3 * k);
-    res.f = obj(x, g);
-    res.grad_norm = k > 0 ? g.lpNorm<Eigen::Infinity>() : 0.0;
-  }
-  for (int q = 0; q < k; ++q) X.row(free_rows[q]) = x.segment<3>(3 * q).transpose();
-  // Report the Euclidean norm of the gradient at the final point (Sec. 5.4 (i)).
-  if (k > 0 && (last_z.size() != x.size() || last_z != x)) {
-    Eigen::VectorXd g(3 * k);
-    obj(x, g);
-  }
-  res.f = k > 0 ? last_f : res.f;
-  res.grad_norm = k > 0 ? last_g.norm() : 0.0;
-  return res;
-}
-
 // Projected Newton over the free vertices of `pn`'s pattern (others fixed) on the X-step
 // objective of one direction; the same result fields as minimize_rows.
 using RowsValue = std::function<double(const Eigen::MatrixXd&, Eigen::MatrixXd*)>;
@@ -850,6 +807,9 @@ constexpr double kUntangleDepth = 0.25;  // see Landing::untangle_located
 // Landing::lift_flat_tets: tets with det J in (-kFlatDet, 0] are flat, lifted to kLiftDet.
 constexpr double kFlatDet = 1e-4, kLiftDet = 1e-4;
 constexpr int kLiftRounds = 30;
+// Landing::untangle_regularized: tets at or below this det J seed its regions (flat tets at
+// det J ~ +-1e-15 come back from a map file with either sign).
+constexpr double kRegularizedSeedDet = 1e-6;
 
 // A boundary vertex v whose closest point p flattens some of its tets (typically slivers with
 // four boundary corners, the other three already on one plane of dM_j): put v at p and, per
@@ -1066,6 +1026,7 @@ class Landing {
       untangle_located(surface_rows, best_map, best, best_count);
       if (best_count > 0) lift_flat_tets(surface_rows, best_map, best, best_count);
     }
+    if (landed && best_count > 0) untangle_regularized(surface_rows, best_map, best, best_count);
     X = best;
     located = best_map;
     return landed;
@@ -1223,6 +1184,21 @@ class Landing {
     };
     untangle_tets(e_.arap().tets(), rules, opt_.land_untangle_rounds, Y);
     keep_if_fewer(surface_rows, Y, best_map, best, best_count);
+  }
+
+  // Step 7 (ours): what is still inverted, untangled by the regularized energy of Garanzha
+  // et al. 2021 (foldover_free.h) with 1, 2, 4, ... rings of vertices around it free, images
+  // kept in M_j and boundary images near dM_j by springs; each result located and kept when
+  // it inverts fewer tets. Wider rings let a fold of the boundary slide out (glasses A -> B,
+  // the map files of the eighth session: 8 inverted tets, 3 with 1 ring, 0 with 8).
+  void untangle_regularized(const std::vector<int>& surface_rows, BarycentricMap& best_map, Eigen::MatrixXd& best,
+                            int& best_count) {
+    const InTarget target{Mj_, bj_.surface, target_, locator_};
+    for (int rings = 1; rings <= opt_.land_regularized_rings && best_count > 0; rings *= 2) {
+      Eigen::MatrixXd Y = best;
+      untangle_in_target(e_.arap(), vv_, on_bd_, target, rings, kRegularizedSeedDet, FoldoverFreeOptions{}, Y);
+      keep_if_fewer(surface_rows, Y, best_map, best, best_count);
+    }
   }
 
   double mean_target_edge() const {

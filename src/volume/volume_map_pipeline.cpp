@@ -234,7 +234,7 @@ nlohmann::json parameters_json(const SymmetricVolumeMapOptions& o, const std::st
           {"land_gamma_rounds", o.land_gamma_rounds}, {"land_gamma_factor", o.land_gamma_factor},
           {"land_barrier_floor", o.land_barrier_floor}, {"land_passes", o.land_passes},
           {"land_pull_rounds", o.land_pull_rounds}, {"land_untangle_rounds", o.land_untangle_rounds},
-          {"land_untangle_rings", o.land_untangle_rings},
+          {"land_untangle_rings", o.land_untangle_rings}, {"land_regularized_rings", o.land_regularized_rings},
           {"eliminate_p", o.eliminate_p}, {"joint_xstep", o.joint_xstep},
           {"post_repair_penalty", o.post_repair_penalty.floor}, {"xstep_iterations", o.xstep_iterations},
           {"grad_tol", o.grad_tol}, {"decrease_tol", o.decrease_tol},

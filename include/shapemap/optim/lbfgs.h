@@ -3,6 +3,7 @@
 #pragma once
 #include <Eigen/Core>
 #include <functional>
+#include <vector>
 
 namespace shapemap {
 
@@ -27,5 +28,12 @@ struct LbfgsResult {
 };
 
 LbfgsResult lbfgs_minimize(const Objective& f, Eigen::VectorXd& x, const LbfgsOptions& opt = {});
+
+// L-BFGS over the rows `free_rows` of an n×3 X (the others fixed) of an objective f(X, grad)
+// on the full X (grad: n×3, resized by f). `iterations` and `memory` as in LbfgsOptions;
+// stops on ||g||_inf < 1e-10 or a relative decrease below 1e-12. Returns the result with f
+// and the Euclidean grad_norm at the final X.
+LbfgsResult minimize_rows(const std::function<double(const Eigen::MatrixXd&, Eigen::MatrixXd*)>& f,
+                          Eigen::MatrixXd& X, const std::vector<int>& free_rows, int iterations, int memory);
 
 }  // namespace shapemap

@@ -128,6 +128,10 @@ struct SymmetricVolumeMapOptions {
   // untangle.h), at most this many sweeps (ours). 0 = off.
   int land_untangle_rounds = 30;
   int land_untangle_rings = 1;  // UntangleRules::rings (0: the folded tets' vertices alone)
+  // Then, while tets are inverted, the regularized untangling of Garanzha et al. 2021
+  // (foldover_free.h) around them, with 1, 2, 4, ... up to this many rings of vertices free,
+  // each kept when it inverts fewer tets (ours). 0 = off.
+  int land_regularized_rings = 8;
   bool fix_boundary_first = true;  // Algorithm 1 lines 6-10 (stage 2): boundary of X fixed,
                                    // boundary rows of P restored each iteration
   bool boundary_to_boundary = false;  // Sec. 5.2: hard constraint P in P*_ij (boundary rows
