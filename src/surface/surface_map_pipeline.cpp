@@ -228,6 +228,7 @@ nlohmann::json elastic_parameters_json(const ElasticOptions& eo, const std::stri
           {"inner_max_iterations", eo.inner_max_iterations},
           {"inner_tol", eo.inner_tol}, {"inner_f_tol", eo.inner_f_tol},
           {"inner_f_tol_ramp", eo.inner_f_tol_ramp},
+          {"precondition_stiffness", eo.precondition_stiffness},
           {"unit_area", eo.normalize_area},
           {"keep_orientation", eo.keep_orientation}, {"gamma_ramp", eo.gamma_ramp},
           {"safe_projection", eo.safe_projection}};
@@ -471,6 +472,7 @@ ElasticOptions elastic_options_from_settings(const ElasticSettings& o, const Tri
   if (o.inner_iterations >= 0) eo.inner_max_iterations = o.inner_iterations;
   if (o.inner_f_tol >= 0) eo.inner_f_tol = o.inner_f_tol;
   if (o.ramp_inner_f_tol >= 0) eo.inner_f_tol_ramp = o.ramp_inner_f_tol;
+  if (o.no_precondition) eo.precondition_stiffness = 0;
   return eo;
 }
 
