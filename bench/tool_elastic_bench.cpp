@@ -48,6 +48,8 @@ void env_options(ElasticOptions& o) {
   if (const char* v = std::getenv("SHAPEMAP_ELASTIC_PRECOND")) o.precondition_stiffness = std::atof(v);
   if (const char* v = std::getenv("SHAPEMAP_ELASTIC_PRECOND_SCALE")) o.precondition_scaling = std::atoi(v) != 0;
   if (const char* v = std::getenv("SHAPEMAP_ELASTIC_INNER_F_TOL")) o.inner_f_tol = std::atof(v);
+  if (const char* v = std::getenv("SHAPEMAP_ELASTIC_START_F_TOL")) o.inner_f_tol_start = std::atof(v);
+  if (const char* v = std::getenv("SHAPEMAP_ELASTIC_START_ITERATIONS")) o.inner_f_tol_start_iterations = std::atoi(v);
   if (const char* v = std::getenv("SHAPEMAP_ELASTIC_INNER_MAX")) o.inner_max_iterations = std::atoi(v);
   if (const char* v = std::getenv("SHAPEMAP_ELASTIC_MAX_OUTER")) o.max_outer_iterations = std::atoi(v);
 }

@@ -65,6 +65,11 @@ void add_elastic_options(CLI::App* app, ElasticSettings& o, std::string& truth_a
                   "elastic: the same during the beta ramp (default 1e-5; 0: as "
                   "--elastic-inner-f-tol; docs/methods.md)")
       ->check(non_negative());
+  app->add_option("--elastic-start-inner-f-tol", o.start_inner_f_tol,
+                  "elastic: the same during the first 40 outer iterations (default 1e-7: lets the "
+                  "map leave its start's basin while beta is small; 0: as the ramp's; "
+                  "docs/methods.md)")
+      ->check(non_negative());
   app->add_flag("--elastic-no-precondition", o.no_precondition,
                 "elastic: plain L-BFGS in the Y steps (default: initial inverse Hessian from "
                 "the cotangent Laplacian and the mismatch terms, docs/methods.md)");

@@ -697,8 +697,9 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
     const double frac = std::min(1.0, double(k) / double(ramp));
     const double beta = (opt.beta_start + (opt.beta_end - opt.beta_start) * frac) * wscale;
     const double gamma = opt.gamma_ramp ? gamma_full * frac : gamma_full;
-    const double f_tol =
-        k < opt.beta_ramp_iterations && opt.inner_f_tol_ramp > 0 ? opt.inner_f_tol_ramp : opt.inner_f_tol;
+    const double f_tol = k < opt.inner_f_tol_start_iterations && opt.inner_f_tol_start > 0 ? opt.inner_f_tol_start
+                         : k < opt.beta_ramp_iterations && opt.inner_f_tol_ramp > 0 ? opt.inner_f_tol_ramp
+                                                                                     : opt.inner_f_tol;
     ElasticIterate it = alternate_once(a, b, beta, gamma, bij, opt, f_tol);
     logA.after_iteration(a, k + 1, opt.keep_no_worse, it.P_folds, it.Y_folds, res.first_P_collapse,
                          res.first_Y_collapse);

@@ -476,6 +476,7 @@ TEST(Elastic, RampInnerToleranceOnlyLoosensTheRamp) {
   o.beta_ramp_iterations = 4;
   o.energy_tol = 0;
   o.inner_f_tol_ramp = 0;  // r0: inner_f_tol throughout (the default loosens the ramp too)
+  o.inner_f_tol_start = 0;  // and no tighter start (the default's first 40 iterations)
   ElasticResult r0 = elastic_correspondence(A, B, P, Q, o);
   o.inner_f_tol_ramp = 1e-4;
   ElasticResult r1 = elastic_correspondence(A, B, P, Q, o);
