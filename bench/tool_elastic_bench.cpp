@@ -19,6 +19,7 @@
 #include "shapemap/generate.h"
 #include "shapemap/surface/bim.h"
 #include "shapemap/surface/elastic.h"
+#include "shapemap/maps.h"
 
 #include <chrono>
 #include <ctime>
@@ -40,6 +41,18 @@ double default_eta(const GeneratedPair& pair, const BIMResult& bim) {
   if (const char* v = std::getenv("SHAPEMAP_ELASTIC_ETA")) return std::atof(v);
   return bending_weight_for_initial_maps(pair.A, pair.B, bim.AB.map, bim.BA.map).eta;
 }
+// Speed options from the environment (issue 20): SHAPEMAP_ELASTIC_PRECOND
+// (ElasticOptions::precondition_stiffness), SHAPEMAP_ELASTIC_PRECOND_SCALE (0/1,
+// precondition_scaling), SHAPEMAP_ELASTIC_INNER_F_TOL (inner_f_tol).
+void env_options(ElasticOptions& o) {
+  if (const char* v = std::getenv("SHAPEMAP_ELASTIC_PRECOND")) o.precondition_stiffness = std::atof(v);
+  if (const char* v = std::getenv("SHAPEMAP_ELASTIC_PRECOND_SCALE")) o.precondition_scaling = std::atoi(v) != 0;
+  if (const char* v = std::getenv("SHAPEMAP_ELASTIC_INNER_F_TOL")) o.inner_f_tol = std::atof(v);
+  if (const char* v = std::getenv("SHAPEMAP_ELASTIC_START_F_TOL")) o.inner_f_tol_start = std::atof(v);
+  if (const char* v = std::getenv("SHAPEMAP_ELASTIC_START_ITERATIONS")) o.inner_f_tol_start_iterations = std::atoi(v);
+  if (const char* v = std::getenv("SHAPEMAP_ELASTIC_INNER_MAX")) o.inner_max_iterations = std::atoi(v);
+  if (const char* v = std::getenv("SHAPEMAP_ELASTIC_MAX_OUTER")) o.max_outer_iterations = std::atoi(v);
+}
 double now() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
@@ -51,13 +64,31 @@ double speed_run(int nv) {
   BIMOptions bo;
   bo.symmetric = true;
   double t0 = now();
-  BIMResult bim = blended_intrinsic_maps(pair.A, pair.B, bo);
+  // SHAPEMAP_ELASTIC_BIM_CACHE=DIR: BIM's maps of this pair are read from (or, the first time,
+  // written to) DIR/bim_<nv>_{AB,BA}.txt, so that repeated speed runs skip BIM.
+  BIMResult bim;
+  const char* cache = std::getenv("SHAPEMAP_ELASTIC_BIM_CACHE");
+  const std::string cab = cache ? std::string(cache) + "/bim_" + std::to_string(nv) + "_AB.txt" : "";
+  const std::string cba = cache ? std::string(cache) + "/bim_" + std::to_string(nv) + "_BA.txt" : "";
+  std::FILE* cached = cache ? std::fopen(cba.c_str(), "r") : nullptr;
+  if (cached) {
+    std::fclose(cached);
+    bim.AB.map = read_map(cab);
+    bim.BA.map = read_map(cba);
+  } else {
+    bim = blended_intrinsic_maps(pair.A, pair.B, bo);
+    if (cache) {
+      write_map(cab, bim.AB.map);
+      write_map(cba, bim.BA.map);
+    }
+  }
   const double t_bim = now() - t0;
   ElasticOptions o;
   o.lbfgs_warm_start = env_int("SHAPEMAP_ELASTIC_WARM_START", 1) != 0;
   o.eta = default_eta(pair, bim);
   if (const char* v = std::getenv("SHAPEMAP_ELASTIC_ENERGY_TOL")) o.energy_tol = std::atof(v);
   if (const char* v = std::getenv("SHAPEMAP_ELASTIC_RAMP_F_TOL")) o.inner_f_tol_ramp = std::atof(v);
+  env_options(o);
   t0 = now();
   const std::clock_t c0 = std::clock();
   ElasticResult r = elastic_correspondence(pair.A, pair.B, bim.AB.map, bim.BA.map, o);
@@ -66,9 +97,10 @@ double speed_run(int nv) {
   const int K = std::max(1, r.outer_iterations);
   std::printf("elastic speed: A %d vertices, B %d vertices, BIM %.2f s, elastic %.2f s wall, "
               "%.2f s CPU (all threads) (eta %g, ramp inner f tol %g, setup %.3f s, %d outer "
-              "iterations, converged %d)\n",
+              "iterations, converged %d, precondition %g)\n",
               pair.A.num_vertices(), pair.B.num_vertices(), t_bim, t_el, cpu_el, o.eta,
-              o.inner_f_tol_ramp, r.time_setup, r.outer_iterations, int(r.converged));
+              o.inner_f_tol_ramp, r.time_setup, r.outer_iterations, int(r.converged),
+              o.precondition_stiffness);
   std::printf("  per outer iteration: %.4f s = projection %.4f s + deformation %.4f s\n",
               (r.time_projection + r.time_deformation) / K, r.time_projection / K,
               r.time_deformation / K);
@@ -79,6 +111,19 @@ double speed_run(int nv) {
   }
   std::printf("  L-BFGS iterations per outer iteration (Y and Y~ steps): %.1f, energy+gradient "
               "evaluations: %.1f\n", double(inner) / K, double(evals) / K);
+  // the same per stretch of outer iterations (the beta ramp's start, its rest, after it)
+  for (auto [a, b] : {std::pair<int, int>{0, 20}, {20, 200}, {200, 300}}) {
+    int ii = 0, ee = 0, cnt = 0;
+    double td = 0;
+    for (int k = a; k < std::min(b, int(r.history.size())); ++k)
+      ii += r.history[k].inner_iterations, ee += r.history[k].inner_evaluations, td += r.history[k].time_deformation, ++cnt;
+    if (cnt) std::printf("    outer %d-%d: L-BFGS iterations %.1f, evaluations %.1f, deformation %.4f s per outer\n", a, a + cnt, double(ii) / cnt, double(ee) / cnt, td / cnt);
+  }
+  if (!r.history.empty()) {
+    const ElasticIterate& last = r.history.back();
+    std::printf("  final E (Eq. 6) %.6g = deformation %.6g + mismatch %.6g + reversibility %.6g\n", last.energy,
+                last.deformation, last.mismatch, last.reversibility);
+  }
   const SurfaceDistortion d0 = surface_distortion(pair.A, pair.B, bim.AB.map);
   const SurfaceDistortion d1 = surface_distortion(pair.A, pair.B, r.map_AB);
   SurfaceErrorOptions eo;
@@ -135,6 +180,7 @@ bool quality_vs_bim() {
     ElasticOptions o;
     o.lbfgs_warm_start = env_int("SHAPEMAP_ELASTIC_WARM_START", 1) != 0;
     o.eta = default_eta(pair, bim);
+    env_options(o);
     ElasticResult r = elastic_correspondence(pair.A, pair.B, bim.AB.map, bim.BA.map, o);
     int inner = 0;
     for (const auto& it : r.history) inner += it.inner_iterations;

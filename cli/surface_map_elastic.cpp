@@ -59,12 +59,20 @@ void add_elastic_options(CLI::App* app, ElasticSettings& o, std::string& truth_a
       ->check(non_negative());
   app->add_option("--elastic-inner-f-tol", o.inner_f_tol,
                   "elastic: a Y step stops when an iteration lowers E by less than this times "
-                  "max(1, |E|) (default 1e-9)")
+                  "max(1, |E|) (default 1e-6)")
       ->check(non_negative());
   app->add_option("--elastic-ramp-inner-f-tol", o.ramp_inner_f_tol,
-                  "elastic: the same during the beta ramp (default 0: as --elastic-inner-f-tol; "
-                  "1e-6 about halves the time at a slightly larger error, docs/methods.md)")
+                  "elastic: the same during the beta ramp (default 1e-5; 0: as "
+                  "--elastic-inner-f-tol; docs/methods.md)")
       ->check(non_negative());
+  app->add_option("--elastic-start-inner-f-tol", o.start_inner_f_tol,
+                  "elastic: the same during the first 40 outer iterations (default 1e-7: lets the "
+                  "map leave its start's basin while beta is small; 0: as the ramp's; "
+                  "docs/methods.md)")
+      ->check(non_negative());
+  app->add_flag("--elastic-no-precondition", o.no_precondition,
+                "elastic: plain L-BFGS in the Y steps (default: initial inverse Hessian from "
+                "the cotangent Laplacian and the mismatch terms, docs/methods.md)");
   app->add_option("--truth", truth_ab,
                   "ground-truth map A->B (map file) for the geodesic error in report.json");
 }

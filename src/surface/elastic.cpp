@@ -9,6 +9,7 @@
 #include "shapemap/geometry/mass.h"
 #include "shapemap/optim/lbfgs_memory.h"
 #include "shapemap/mesh.h"
+#include "shapemap/surface/elastic_preconditioner.h"
 #include "shapemap/surface/shell_energy.h"
 
 #include <Eigen/Geometry>
@@ -96,6 +97,11 @@ struct Side {
   Eigen::MatrixXd projA, projB;
   std::vector<ClosestPointResult> proj;
   ElasticLbfgs lbfgs;           // Y-step L-BFGS buffers and (warm-start) curvature pairs
+  // H0 = (theta K)^-1 of the Y steps (ElasticOptions::precondition_stiffness): K, its
+  // diagonal's scratch and the scale theta of the newest curvature pair
+  ElasticPreconditioner pre;
+  Eigen::VectorXd pre_diag;
+  double pre_theta = 1;
   // safe projection (ElasticOptions::safe_projection): the previous P, the target's unit face
   // normals, per-face flags, and how many rows kept their previous value so far
   BarycentricMap P_prev;
@@ -288,6 +294,27 @@ bool turns_a_triangle(const Eigen::MatrixXi& F, const double* y0, const double* 
   return false;
 }
 
+// Factors K = kappa L_X + diag(2 beta m + 2 gamma Q^T m~) of side s for this Y step
+// (ElasticOptions::precondition_stiffness; the pattern is analyzed once per run).
+void update_preconditioner(Side& s, const Side& t, double beta, double gamma, bool bijective,
+                           const ElasticOptions& opt) {
+  const int n = int(s.X.rows());
+  if (s.pre.num_vertices() != n)
+    s.pre = ElasticPreconditioner(s.X, s.F, opt.precondition_stiffness * s.shell.options().alpha * opt.mu);
+  s.pre_diag = 2 * beta * s.mass;  // exact Hessian of the mismatch term (Eq. 3/4)
+  if (bijective) {  // row sums of 2 gamma Q^T M~ Q = 2 gamma Q^T m~ (rows of Q sum to 1)
+    const BarycentricMap& Q = t.P;
+    for (int j = 0; j < Q.size(); ++j) {
+      const int f = Q.elem(j);
+      for (int c = 0; c < 3; ++c) s.pre_diag(s.F(f, c)) += 2 * gamma * Q.bary(j, c) * t.mass(j);
+    }
+  }
+  // a vertex in no face has no mass: keep K positive definite
+  const double floor = 1e-12 * s.pre_diag.cwiseAbs().maxCoeff();
+  s.pre_diag = s.pre_diag.cwiseMax(floor > 0 ? floor : 1e-300);
+  s.pre.set_diagonal(s.pre_diag);
+}
+
 int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bijective,
                      const ElasticOptions& opt, double f_tol, EnergyParts& parts, int& evaluations) {
   const int n = int(s.X.rows());
@@ -300,6 +327,17 @@ int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bij
   // Admissible edges fixed for this inner solve (continuous energy along line searches),
   // recomputed at the start of every Y step (docs/methods.md).
   s.shell.freeze_mask(L.x.data());
+  const bool pre = opt.precondition_stiffness > 0;
+  if (pre) update_preconditioner(s, t, beta, gamma, bijective, opt);
+  auto direction = [&]() {  // d = -H g
+    if (pre)
+      L.H.direction(L.g, L.d, [&](Eigen::VectorXd& v) {
+        s.pre.apply(v.data(), v.data());
+        v *= s.pre_theta;
+      });
+    else
+      L.H.direction(L.g, L.d);
+  };
   double f = obj(L.x, L.g);
   ++evaluations;
   parts = obj.last;
@@ -307,11 +345,12 @@ int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bij
   bool restarted = false;  // the last direction was steepest descent after a reset
   if (std::isfinite(f) && L.g.lpNorm<Eigen::Infinity>() >= opt.inner_tol) {
     while (iterations < opt.inner_max_iterations) {
-      L.H.direction(L.g, L.d);  // d = -H g
+      direction();
       double gd = L.g.dot(L.d);
-      if (!(gd < 0)) {  // not a descent direction (rounding): steepest descent
+      if (!(gd < 0)) {  // not a descent direction (rounding): steepest descent (or -K^-1 g)
         L.reset();
-        L.d = -L.g;
+        if (pre) direction();
+        else L.d = -L.g;
         gd = L.g.dot(L.d);
       }
       // Armijo backtracking (Sec. 5.1); first step without curvature information: unit length.
@@ -321,7 +360,7 @@ int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bij
       // decrease alpha |g.d| is below the inner stalled-progress tolerance (an accepted step
       // would end the solve on that criterion anyway) instead of halving down to rounding
       // noise (up to 40 evaluations, then as many again from steepest descent).
-      double alpha = L.H.stored() == 0 ? std::min(1.0, 1.0 / std::sqrt(-gd)) : 1.0;
+      double alpha = L.H.stored() == 0 && !pre ? std::min(1.0, 1.0 / std::sqrt(-gd)) : 1.0;
       const double c1 = 1e-4;
       const double min_decrease =
           f_tol > 0 ? f_tol * std::max(1.0, std::abs(f)) : 0.0;
@@ -359,6 +398,11 @@ int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bij
       }
       restarted = false;
       L.H.add_pair(L.x, L.x_new, L.g, L.g_new);
+      if (pre && opt.precondition_scaling) {  // theta = s'Ks / s'y, s = alpha d: H0 = (theta K)^-1 fits the pair
+        const double sy = alpha * L.d.dot(L.g_new - L.g);
+        const double sKs = alpha * alpha * s.pre.quadratic_form(L.d.data());
+        if (sy > 0 && sKs > 0) s.pre_theta = sKs / sy;
+      }
       const double f_old = f;
       L.x.swap(L.x_new);
       L.g.swap(L.g_new);
@@ -653,8 +697,9 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
     const double frac = std::min(1.0, double(k) / double(ramp));
     const double beta = (opt.beta_start + (opt.beta_end - opt.beta_start) * frac) * wscale;
     const double gamma = opt.gamma_ramp ? gamma_full * frac : gamma_full;
-    const double f_tol =
-        k < opt.beta_ramp_iterations && opt.inner_f_tol_ramp > 0 ? opt.inner_f_tol_ramp : opt.inner_f_tol;
+    const double f_tol = k < opt.inner_f_tol_start_iterations && opt.inner_f_tol_start > 0 ? opt.inner_f_tol_start
+                         : k < opt.beta_ramp_iterations && opt.inner_f_tol_ramp > 0 ? opt.inner_f_tol_ramp
+                                                                                     : opt.inner_f_tol;
     ElasticIterate it = alternate_once(a, b, beta, gamma, bij, opt, f_tol);
     logA.after_iteration(a, k + 1, opt.keep_no_worse, it.P_folds, it.Y_folds, res.first_P_collapse,
                          res.first_Y_collapse);

@@ -228,6 +228,9 @@ nlohmann::json elastic_parameters_json(const ElasticOptions& eo, const std::stri
           {"inner_max_iterations", eo.inner_max_iterations},
           {"inner_tol", eo.inner_tol}, {"inner_f_tol", eo.inner_f_tol},
           {"inner_f_tol_ramp", eo.inner_f_tol_ramp},
+          {"precondition_stiffness", eo.precondition_stiffness},
+          {"inner_f_tol_start", eo.inner_f_tol_start},
+          {"inner_f_tol_start_iterations", eo.inner_f_tol_start_iterations},
           {"unit_area", eo.normalize_area},
           {"keep_orientation", eo.keep_orientation}, {"gamma_ramp", eo.gamma_ramp},
           {"safe_projection", eo.safe_projection}};
@@ -471,6 +474,8 @@ ElasticOptions elastic_options_from_settings(const ElasticSettings& o, const Tri
   if (o.inner_iterations >= 0) eo.inner_max_iterations = o.inner_iterations;
   if (o.inner_f_tol >= 0) eo.inner_f_tol = o.inner_f_tol;
   if (o.ramp_inner_f_tol >= 0) eo.inner_f_tol_ramp = o.ramp_inner_f_tol;
+  if (o.no_precondition) eo.precondition_stiffness = 0;
+  if (o.start_inner_f_tol >= 0) eo.inner_f_tol_start = o.start_inner_f_tol;
   return eo;
 }
 

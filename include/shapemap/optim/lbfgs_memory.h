@@ -22,6 +22,25 @@ class LbfgsMemory {
   Eigen::Index size() const { return S_.rows(); }
   // d = -H g (two-loop recursion).
   void direction(const Eigen::VectorXd& g, Eigen::VectorXd& d);
+  // The same with the initial matrix H0 given by h0 (a callable that replaces its argument
+  // v by H0 v, e.g. a sparse Cholesky solve) instead of gamma I: N&W Algorithm 7.4 allows any
+  // symmetric positive definite H0 (a preconditioner).
+  template <class ApplyH0>
+  void direction(const Eigen::VectorXd& g, Eigen::VectorXd& d, ApplyH0&& h0) {
+    d = g;
+    for (int k = 0; k < stored_; ++k) {
+      const int i = (newest_ - k + m_) % m_;
+      a_(i) = rho_(i) * S_.col(i).dot(d);
+      d.noalias() -= a_(i) * Y_.col(i);
+    }
+    h0(d);
+    for (int k = stored_ - 1; k >= 0; --k) {
+      const int i = (newest_ - k + m_) % m_;
+      const double b = rho_(i) * Y_.col(i).dot(d);
+      d.noalias() += (a_(i) - b) * S_.col(i);
+    }
+    d = -d;
+  }
   // Adds s = x_new - x, y = g_new - g, unless s'y <= 1e-10 |s| |y| (no positive curvature).
   void add_pair(const Eigen::VectorXd& x, const Eigen::VectorXd& x_new, const Eigen::VectorXd& g,
                 const Eigen::VectorXd& g_new);

@@ -33,8 +33,10 @@ struct ElasticSettings {
   bool plain_projection = false;  // ElasticOptions::safe_projection = false
   bool keep_worse = false;        // collapse guard off (ElasticOptions::keep_no_worse)
   int inner_iterations = -1;      // ElasticOptions::inner_max_iterations (default 50)
-  double inner_f_tol = -1;        // ElasticOptions::inner_f_tol (default 1e-9)
-  double ramp_inner_f_tol = -1;   // ElasticOptions::inner_f_tol_ramp (default 0 = inner_f_tol)
+  double inner_f_tol = -1;        // ElasticOptions::inner_f_tol (default 1e-6)
+  double ramp_inner_f_tol = -1;   // ElasticOptions::inner_f_tol_ramp (default 1e-5; 0 = inner_f_tol)
+  bool no_precondition = false;   // ElasticOptions::precondition_stiffness = 0 (plain L-BFGS)
+  double start_inner_f_tol = -1;  // ElasticOptions::inner_f_tol_start (default 1e-7; 0 = off)
   // Untangle the returned maps (surface/untangle.h): the images around flipped or collapsed
   // triangles slide on the target; kept per region only where the fold count falls.
   bool untangle = true;
