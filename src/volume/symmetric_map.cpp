@@ -954,7 +954,9 @@ void project_keeping_positive(const ArapEnergy& arap, const std::vector<std::vec
 //     without it, all at once;
 //  3. the interior relaxed with the boundary held (Newton on the X-step objective);
 //  4. a repair of inverted tets in which boundary vertices slide along dM_j;
-//  5. the located map's inverted tets untangled with every image held in M_j.
+//  5. the located map's inverted tets untangled with every image held in M_j;
+//  6. flat tets on flat parts of dM_j lifted;
+//  7. what is still inverted untangled by the regularized energy of Garanzha et al. 2021.
 // The located result replaces X unless it inverts more tets than X located as it was
 // ("snapped"); `located` receives the chosen map and X its positions.
 class Landing {
