@@ -94,6 +94,14 @@ BarycentricMap perturb(const BarycentricMap& map, const TriMesh& T, double amoun
   return project(P, T);
 }
 
+// Generated non-isometric creature pair (seed 3, 1,000 vertices) and both ground-truth maps
+// distorted by 3%: the start of the end-to-end tests.
+struct DistortedTruth {
+  GeneratedPair pair = make_creature_pair(3, PairKind::NonIsometric, 1000);
+  BarycentricMap initAB = perturb(pair.truth_AB, pair.B, 0.03);
+  BarycentricMap initBA = perturb(pair.truth_BA, pair.A, 0.03);
+};
+
 // NN snap: every mapped point moved to the nearest vertex of its face (collapses triangles).
 BarycentricMap snap(const BarycentricMap& map) {
   BarycentricMap m = map;
@@ -185,9 +193,9 @@ TEST(Elastic, RejectsMismatchedMaps) {
 // End-to-end on a generated non-isometric pair, initialized from a smoothly distorted
 // ground truth: distortion goes down, geodesic error does not go up.
 TEST(Elastic, EndToEndImprovesDistortedTruth) {
-  GeneratedPair pair = make_creature_pair(3, PairKind::NonIsometric, 1000);
-  const BarycentricMap initAB = perturb(pair.truth_AB, pair.B, 0.03);
-  const BarycentricMap initBA = perturb(pair.truth_BA, pair.A, 0.03);
+  DistortedTruth start;
+  GeneratedPair& pair = start.pair;
+  const BarycentricMap &initAB = start.initAB, &initBA = start.initBA;
   ElasticOptions o;
   o.max_outer_iterations = 30;
   o.beta_ramp_iterations = 20;
@@ -496,9 +504,9 @@ TEST(Elastic, RampInnerToleranceOnlyLoosensTheRamp) {
 // stop, the same L-BFGS iteration budget) ends at a lower energy than with H0 = gamma I, and
 // a short full run stays valid and finite.
 TEST(Elastic, PreconditionedYStepsLowerTheEnergyFaster) {
-  GeneratedPair pair = make_creature_pair(3, PairKind::NonIsometric, 1000);
-  const BarycentricMap initAB = perturb(pair.truth_AB, pair.B, 0.03);
-  const BarycentricMap initBA = perturb(pair.truth_BA, pair.A, 0.03);
+  DistortedTruth start;
+  GeneratedPair& pair = start.pair;
+  const BarycentricMap &initAB = start.initAB, &initBA = start.initBA;
   ElasticOptions o;
   o.max_outer_iterations = 1;
   o.inner_f_tol = 0;

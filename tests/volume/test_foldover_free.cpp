@@ -17,6 +17,17 @@ int inverted(const ArapEnergy& arap, const Eigen::MatrixXd& X) {
   return int((arap.determinants(X).array() <= 0).count());
 }
 
+// A box tet mesh, its ARAP energy (the rest tets and weights), boundary and boundary flags.
+struct Box {
+  TetMesh m;
+  ArapEnergy arap;
+  TetBoundary b;
+  std::vector<char> on_bd;
+  explicit Box(const TetMesh& mesh) : m(mesh), arap(mesh.V, mesh.T), b(boundary_surface(mesh)), on_bd(mesh.num_vertices(), 0) {
+    for (int i = 0; i < b.to_volume.size(); ++i) on_bd[b.to_volume(i)] = 1;
+  }
+};
+
 }  // namespace
 
 // dF/dJ against central differences, for positive, flat and inverted J and a large and a
@@ -67,11 +78,11 @@ TEST(FoldoverFree, DistortionAtRotationsAndFlatTets) {
 // A box map with interior vertices pushed through their neighbours (many folded tets),
 // boundary held: untangled, and only the region's vertices move.
 TEST(FoldoverFree, UntanglesFoldsWithTheBoundaryHeld) {
-  const TetMesh m = grid_box(5, 4, 4, 1.0, 0.8, 0.8);
-  const ArapEnergy arap(m.V, m.T);
-  const TetBoundary b = boundary_surface(m);
-  std::vector<char> on_bd(m.num_vertices(), 0);
-  for (int i = 0; i < b.to_volume.size(); ++i) on_bd[b.to_volume(i)] = 1;
+  const Box box(grid_box(5, 4, 4, 1.0, 0.8, 0.8));
+  const TetMesh& m = box.m;
+  const ArapEnergy& arap = box.arap;
+  const TetBoundary& b = box.b;
+  const std::vector<char>& on_bd = box.on_bd;
   Eigen::MatrixXd Y = m.V;
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> u(-0.25, 0.25);
@@ -94,11 +105,11 @@ TEST(FoldoverFree, UntanglesFoldsWithTheBoundaryHeld) {
 // vertices slid along a face past their neighbours; untangle_in_target unfolds it, every
 // image stays in the target (to the spring's tolerance) and the boundary near dM_j.
 TEST(FoldoverFree, UntanglesInTheTargetWithBoundaryVerticesSliding) {
-  const TetMesh m = grid_box(6, 5, 4, 1.0, 0.8, 0.6);
-  const ArapEnergy arap(m.V, m.T);
-  const TetBoundary b = boundary_surface(m);
-  std::vector<char> on_bd(m.num_vertices(), 0);
-  for (int i = 0; i < b.to_volume.size(); ++i) on_bd[b.to_volume(i)] = 1;
+  const Box box(grid_box(6, 5, 4, 1.0, 0.8, 0.6));
+  const TetMesh& m = box.m;
+  const ArapEnergy& arap = box.arap;
+  const TetBoundary& b = box.b;
+  const std::vector<char>& on_bd = box.on_bd;
   Eigen::MatrixXd Y = m.V;
   // Vertices on the top face (z = 0.6) with x near 0.5 slide +0.25 in x: past the next row.
   int slid = 0;
