@@ -504,18 +504,17 @@ TEST(Elastic, RampInnerToleranceOnlyLoosensTheRamp) {
 // stop, the same L-BFGS iteration budget) ends at a lower energy than with H0 = gamma I, and
 // a short full run stays valid and finite.
 TEST(Elastic, PreconditionedYStepsLowerTheEnergyFaster) {
-  DistortedTruth start;
-  GeneratedPair& pair = start.pair;
-  const BarycentricMap &initAB = start.initAB, &initBA = start.initBA;
+  const DistortedTruth start;
+  const GeneratedPair& pair = start.pair;
   ElasticOptions o;
   o.max_outer_iterations = 1;
   o.inner_f_tol = 0;
   o.inner_f_tol_ramp = 0;
   o.inner_max_iterations = 20;
   o.precondition_stiffness = 0;
-  const ElasticResult r0 = elastic_correspondence(pair.A, pair.B, initAB, initBA, o);
+  const ElasticResult r0 = elastic_correspondence(pair.A, pair.B, start.initAB, start.initBA, o);
   o.precondition_stiffness = 1;
-  const ElasticResult r1 = elastic_correspondence(pair.A, pair.B, initAB, initBA, o);
+  const ElasticResult r1 = elastic_correspondence(pair.A, pair.B, start.initAB, start.initBA, o);
   ASSERT_EQ(r0.history.size(), 1u);
   ASSERT_EQ(r1.history.size(), 1u);
   EXPECT_LT(r1.history[0].energy, r0.history[0].energy);
@@ -525,7 +524,7 @@ TEST(Elastic, PreconditionedYStepsLowerTheEnergyFaster) {
   ElasticOptions d;  // defaults (preconditioned), a short run
   d.max_outer_iterations = 30;
   d.beta_ramp_iterations = 20;
-  const ElasticResult r = elastic_correspondence(pair.A, pair.B, initAB, initBA, d);
+  const ElasticResult r = elastic_correspondence(pair.A, pair.B, start.initAB, start.initBA, d);
   for (const auto& it : r.history) EXPECT_TRUE(std::isfinite(it.energy));
   validate_map(r.map_AB, pair.A.num_vertices(), pair.B.num_faces(), 3, "AB");
   validate_map(r.map_BA, pair.B.num_vertices(), pair.A.num_faces(), 3, "BA");

@@ -79,26 +79,22 @@ TEST(FoldoverFree, DistortionAtRotationsAndFlatTets) {
 // boundary held: untangled, and only the region's vertices move.
 TEST(FoldoverFree, UntanglesFoldsWithTheBoundaryHeld) {
   const Box box(grid_box(5, 4, 4, 1.0, 0.8, 0.8));
-  const TetMesh& m = box.m;
-  const ArapEnergy& arap = box.arap;
-  const TetBoundary& b = box.b;
-  const std::vector<char>& on_bd = box.on_bd;
-  Eigen::MatrixXd Y = m.V;
+  Eigen::MatrixXd Y = box.m.V;
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> u(-0.25, 0.25);
   std::vector<int> free, tets;
-  for (int v = 0; v < m.num_vertices(); ++v)
-    if (!on_bd[v]) {
+  for (int v = 0; v < box.m.num_vertices(); ++v)
+    if (!box.on_bd[v]) {
       free.push_back(v);
       for (int c = 0; c < 3; ++c) Y(v, c) += u(rng);
     }
-  for (int k = 0; k < m.num_tets(); ++k) tets.push_back(k);
-  ASSERT_GT(inverted(arap, Y), 10);
-  const FoldoverFreeResult r = untangle_foldover_free(arap, tets, free, {}, FoldoverFreeOptions{}, Y);
-  EXPECT_EQ(inverted(arap, Y), 0);
+  for (int k = 0; k < box.m.num_tets(); ++k) tets.push_back(k);
+  ASSERT_GT(inverted(box.arap, Y), 10);
+  const FoldoverFreeResult r = untangle_foldover_free(box.arap, tets, free, {}, FoldoverFreeOptions{}, Y);
+  EXPECT_EQ(inverted(box.arap, Y), 0);
   EXPECT_GT(r.min_det, 1e-3);
-  for (int v = 0; v < m.num_vertices(); ++v)
-    if (on_bd[v]) EXPECT_EQ((Y.row(v) - m.V.row(v)).norm(), 0.0);
+  for (int v = 0; v < box.m.num_vertices(); ++v)
+    if (box.on_bd[v]) EXPECT_EQ((Y.row(v) - box.m.V.row(v)).norm(), 0.0);
 }
 
 // The landing's use: a map of a box onto the same box with a fold, including boundary
@@ -106,33 +102,29 @@ TEST(FoldoverFree, UntanglesFoldsWithTheBoundaryHeld) {
 // image stays in the target (to the spring's tolerance) and the boundary near dM_j.
 TEST(FoldoverFree, UntanglesInTheTargetWithBoundaryVerticesSliding) {
   const Box box(grid_box(6, 5, 4, 1.0, 0.8, 0.6));
-  const TetMesh& m = box.m;
-  const ArapEnergy& arap = box.arap;
-  const TetBoundary& b = box.b;
-  const std::vector<char>& on_bd = box.on_bd;
-  Eigen::MatrixXd Y = m.V;
+  Eigen::MatrixXd Y = box.m.V;
   // Vertices on the top face (z = 0.6) with x near 0.5 slide +0.25 in x: past the next row.
   int slid = 0;
-  for (int v = 0; v < m.num_vertices(); ++v)
-    if (std::abs(m.V(v, 2) - 0.6) < 1e-12 && std::abs(m.V(v, 0) - 0.5) < 0.1 && m.V(v, 1) > 0.1 && m.V(v, 1) < 0.7) {
+  for (int v = 0; v < box.m.num_vertices(); ++v)
+    if (std::abs(box.m.V(v, 2) - 0.6) < 1e-12 && std::abs(box.m.V(v, 0) - 0.5) < 0.1 && box.m.V(v, 1) > 0.1 && box.m.V(v, 1) < 0.7) {
       Y(v, 0) += 0.25;
       ++slid;
     }
   ASSERT_GT(slid, 0);
-  const int before = inverted(arap, Y);
+  const int before = inverted(box.arap, Y);
   ASSERT_GT(before, 0);
-  const ClosestPoint3 surface(b.surface.V, b.surface.F);
-  const TetLocator locator(m.V, m.T);
-  untangle_in_target(arap, vertex_neighbors(m.T, m.num_vertices()), on_bd, InTarget{m, b.surface, surface, locator},
+  const ClosestPoint3 surface(box.b.surface.V, box.b.surface.F);
+  const TetLocator locator(box.m.V, box.m.T);
+  untangle_in_target(box.arap, vertex_neighbors(box.m.T, box.m.num_vertices()), box.on_bd, InTarget{box.m, box.b.surface, surface, locator},
                      2, 1e-6, FoldoverFreeOptions{}, Y);
-  EXPECT_EQ(inverted(arap, Y), 0) << "before: " << before;
+  EXPECT_EQ(inverted(box.arap, Y), 0) << "before: " << before;
   const double lo = -1e-3, hi = 1e-3;  // the springs' tolerance, in units of the box
   EXPECT_GT(Y.col(0).minCoeff(), lo);
   EXPECT_LT(Y.col(0).maxCoeff(), 1.0 + hi);
   EXPECT_GT(Y.col(2).minCoeff(), lo);
   EXPECT_LT(Y.col(2).maxCoeff(), 0.6 + hi);
-  for (int i = 0; i < b.to_volume.size(); ++i) {
-    const Eigen::Vector3d y = Y.row(b.to_volume(i)).transpose();
-    EXPECT_LT(std::sqrt(surface.query(y).sqdist), 0.02) << "boundary vertex " << b.to_volume(i);
+  for (int i = 0; i < box.b.to_volume.size(); ++i) {
+    const Eigen::Vector3d y = Y.row(box.b.to_volume(i)).transpose();
+    EXPECT_LT(std::sqrt(surface.query(y).sqdist), 0.02) << "boundary vertex " << box.b.to_volume(i);
   }
 }
