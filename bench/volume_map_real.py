@@ -206,7 +206,8 @@ def main():
         for solver in args.solvers.split(","):
             out = os.path.join(args.work, name + "-" + solver)
             # "lbfgs" is the solver as it was before issue 19: L-BFGS X-steps, stage 2 always, no landing.
-            today = ["--boundary-fixed-stage", "on", "--no-land-on-target"] if solver == "lbfgs" else []
+            today = ["--boundary-fixed-stage", "on", "--no-land-on-target", "--boundary-fixed-iteration-factor", "1"] \
+                if solver == "lbfgs" else []
             code, wall, peak = r.run(["volume-map", A, B, "-o", out, "--solver", solver, "--quiet"] + today + init +
                                      shlex.split(args.extra))
             row = {"pair": name, "solver": solver, "exit_code": code, "seconds": wall, "peak_mb": peak}

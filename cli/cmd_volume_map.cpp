@@ -42,6 +42,7 @@ struct VolumeMapArgs {
   std::string auto_surface = "elastic";
   std::string solver = "newton";
   std::string boundary_stage = "auto";
+  std::string interior_init = "closest";
   SymmetricVolumeMapOptions opt;
 };
 
@@ -112,6 +113,7 @@ int run_volume_map_command(VolumeMapArgs& a, const GlobalOptions& g) {
   req.init = choose_init(a);
   req.auto_surface = a.auto_surface;
   req.boundary_stage = a.boundary_stage;
+  req.interior_init = a.interior_init;
   req.strict = g.strict;
   req.opt = a.opt;
   req.opt.solver = a.solver == "lbfgs" ? XStepSolver::Lbfgs : XStepSolver::Newton;
@@ -242,7 +244,8 @@ void add_energy_weight_options(CLI::App* app, VolumeMapArgs& a) {
 // The alternation of Algorithm 1 (Sec. 5.4): iterations per stage, the X-step solver
 // (Sec. 5.2), the boundary-fixed stage and Anderson acceleration.
 void add_alternation_options(CLI::App* app, VolumeMapArgs& a) {
-  app->add_option("--max-iterations", a.opt.max_iterations, "Outer iterations per stage (Sec. 5.4)")
+  app->add_option("--max-iterations", a.opt.max_iterations,
+                  "Outer iterations of stage 4 at most (Sec. 5.4); stage 2: times --boundary-fixed-iteration-factor")
       ->check(non_negative())
       ->capture_default_str();
   app->add_option("--xstep-iterations", a.opt.xstep_iterations, "L-BFGS iterations per X-step")
@@ -258,6 +261,12 @@ void add_alternation_options(CLI::App* app, VolumeMapArgs& a) {
                     "the ball, as the authors' code does)")
       ->check(CLI::IsMember({"auto", "on", "off"}))
       ->capture_default_str();
+  app->add_option("--interior-init", a.interior_init,
+                  "Interior of X at the start: closest (Sec. 5.1: the target of the closest boundary "
+                  "vertex or landmark) or harmonic (ours: the harmonic extension of the images of the "
+                  "boundary vertices; meant for a surface-map start)")
+      ->check(CLI::IsMember({"closest", "harmonic"}))
+      ->capture_default_str();
   app->add_option("--newton-iterations", a.opt.newton_iterations, "Newton iterations per X-step at most")
       ->check(non_negative())
       ->capture_default_str();
@@ -265,6 +274,16 @@ void add_alternation_options(CLI::App* app, VolumeMapArgs& a) {
                   "Newton iterations per X-step at most in stage 4 once beta and gamma are final (ours; "
                   "0 = --newton-iterations)")
       ->check(non_negative())
+      ->capture_default_str();
+  app->add_option("--boundary-fixed-expansions", a.opt.boundary_fixed_expansions,
+                  "Stage 2: when a full Newton step is accepted, try doubling it up to this many times "
+                  "while Eq. 25 keeps falling (ours; 0 = off)")
+      ->check(CLI::Range(0, 10))
+      ->capture_default_str();
+  app->add_option("--boundary-fixed-iteration-factor", a.opt.boundary_fixed_iteration_factor,
+                  "Stage 2 may take this many times --max-iterations outer iterations (ours: its X-steps "
+                  "are 2 Newton steps, where Sec. 5.4's cap counts X-steps taken to convergence)")
+      ->check(CLI::Range(1, 20))
       ->capture_default_str();
   app->add_option("--anderson", a.opt.anderson_memory,
                     "Stages 2 and 4: Anderson acceleration of the P/X alternation with this memory, "

@@ -179,6 +179,7 @@ py::dict volume_map(const RowMatrixXd& VA, const RowMatrixXi& EA, const RowMatri
   req.init = o["init"].cast<std::string>();
   req.auto_surface = o["auto_surface_map"].cast<std::string>();
   req.boundary_stage = o["boundary_fixed_stage"].cast<std::string>();
+  req.interior_init = o["interior_init"].cast<std::string>();
   req.strict = o["strict"].cast<bool>();
   req.opt = volume_options(o);
   std::vector<int> la, lb;

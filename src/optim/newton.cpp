@@ -40,7 +40,7 @@ NewtonResult newton_descent(const NewtonValue& f, const NewtonDirection& directi
                             const NewtonOptions& opt) {
   const Eigen::Index N = x.size();
   NewtonResult res;
-  Eigen::VectorXd g(N), g_new(N), x_new, d;
+  Eigen::VectorXd g(N), g_new(N), x_new, d, x_try, g_try(N);
   auto t = Clock::now();
   double fx = f(x, &g);
   res.seconds_value += seconds_since(t);
@@ -67,6 +67,7 @@ NewtonResult newton_descent(const NewtonValue& f, const NewtonDirection& directi
       const double longest = d.lpNorm<Eigen::Infinity>();
       if (longest > opt.max_step) step = opt.max_step / longest;
     }
+    double first_step = step;
     // Backtracking (Armijo) on the full energy.
     bool accepted = false;
     double f_new = fx;
@@ -80,6 +81,21 @@ NewtonResult newton_descent(const NewtonValue& f, const NewtonDirection& directi
         break;
       }
       step *= 0.5;
+    }
+    // Expansion (NewtonOptions::max_expansions): only after a first trial that was accepted.
+    for (int e = 0; accepted && e < opt.max_expansions && f_new < fx && step == first_step; ++e) {
+      x_try = x + 2 * step * d;
+      const double f_try = f(x_try, &g_try);
+      ++res.evaluations;
+      // The added length `step` must itself give Armijo's decrease: a doubling that gains
+      // next to nothing is refused, so that rounding does not decide it (swapping the inputs
+      // of a symmetric problem must give the same steps).
+      if (!(std::isfinite(f_try) && f_try <= f_new + opt.c1 * step * slope)) break;
+      x_new.swap(x_try);
+      g_new.swap(g_try);
+      f_new = f_try;
+      step *= 2;
+      first_step = step;
     }
     res.seconds_value += seconds_since(t);
     ++res.iterations;

@@ -2,6 +2,7 @@
 #include "shapemap/volume/symmetric_map.h"
 #include "shapemap/adjacency.h"
 #include "shapemap/error.h"
+#include "shapemap/geometry/harmonic_extension.h"
 #include "shapemap/geometry/mass.h"
 #include "shapemap/geometry/tet_volume.h"
 #include "shapemap/optim/anderson.h"
@@ -1370,6 +1371,10 @@ class SymmetricMapSolver {
         X21_(map_positions(P21_, M1_.V, M1_.T)) {                    // line 4
     split_vertices(e12_, bd1_, all1_, int1_);
     split_vertices(e21_, bd2_, all2_, int2_);
+    if (opt_.harmonic_interior) {  // ours, instead of Sec. 5.1's closest-boundary-vertex copy
+      X12_ = harmonic_extension(M1_.V, M1_.T, X12_, bd1_);
+      X21_ = harmonic_extension(M2_.V, M2_.T, X21_, bd2_);
+    }
     vv1_ = vertex_neighbors(M1_.T, M1_.num_vertices());
     vv2_ = vertex_neighbors(M2_.T, M2_.num_vertices());
     vt1_ = vertex_elements(M1_.T, M1_.num_vertices());
@@ -1470,6 +1475,7 @@ class SymmetricMapSolver {
       NewtonOptions no;
       no.max_iterations = newton_iterations_now(fix_boundary);
       no.f_rel_tol = opt_.newton_rel_tol;
+      no.max_expansions = fix_boundary ? opt_.boundary_fixed_expansions : 0;
       no.grad_tol = 0;
       // (Running the two directions on one thread each was 1.3x faster but not
       // reproducible run to run: it stays serial, parallel inside.)
@@ -1603,6 +1609,7 @@ class SymmetricMapSolver {
     CoupledNewtonOptions no;
     no.newton.max_iterations = newton_iterations_now(fix_boundary);
     no.newton.f_rel_tol = opt_.newton_rel_tol;
+    no.newton.max_expansions = fix_boundary ? opt_.boundary_fixed_expansions : 0;
     no.newton.grad_tol = 0;
     const NewtonResult nr = cn.minimize(f, h, z, no);
     scatter_p(z);
@@ -1658,7 +1665,8 @@ class SymmetricMapSolver {
     }
     AndersonAcceleration aa(opt_.anderson_memory);
     Eigen::VectorXd plain;  // G(x_k) when X holds an accelerated proposal
-    for (int it = 0; it < opt_.max_iterations; ++it) {
+    const int max_iterations = opt_.max_iterations * (fix_boundary ? std::max(1, opt_.boundary_fixed_iteration_factor) : 1);
+    for (int it = 0; it < max_iterations; ++it) {
       beta_ = beta_at(global_iter_);
       gamma_ = gamma_at(global_iter_);
       set_weights();
@@ -1679,7 +1687,7 @@ class SymmetricMapSolver {
       ++global_iter_;
       ++st.iterations;
       st.energy = E;
-      report(progress_, "volume-map/" + name, double(it + 1) / opt_.max_iterations);
+      report(progress_, "volume-map/" + name, double(it + 1) / max_iterations);
       st.energy_history.push_back(E);
       st.gradient_history.push_back(gn);
       const bool ramp_done = beta_at(global_iter_) == beta_ && gamma_at(global_iter_) == gamma_;
@@ -1698,7 +1706,7 @@ class SymmetricMapSolver {
       }
       E_prev = E;
       beta_prev = beta_;
-      if (it + 1 == opt_.max_iterations) {
+      if (it + 1 == max_iterations) {
         st.stop_reason = "iterations";
       } else if (opt_.anderson_memory > 0 && ramp_done) {
         plain = pack();

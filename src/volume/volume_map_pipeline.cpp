@@ -226,11 +226,12 @@ nlohmann::json parameters_json(const SymmetricVolumeMapOptions& o, const std::st
           {"beta_start", o.beta_start}, {"beta_end", o.beta_end},
           {"beta_ramp_iterations", o.beta_ramp_iterations},
           {"gamma_start", o.gamma_start}, {"backward_projection_scale", o.backward_projection_scale},
-          {"max_iterations", o.max_iterations},
+          {"max_iterations", o.max_iterations}, {"boundary_fixed_iteration_factor", o.boundary_fixed_iteration_factor},
+          {"boundary_fixed_expansions", o.boundary_fixed_expansions},
           {"solver", o.solver == XStepSolver::Lbfgs ? "lbfgs" : "newton"},
           {"newton_iterations", o.newton_iterations},
           {"newton_iterations_final", o.newton_iterations_final},
-          {"boundary_fixed_stage", o.fix_boundary_first}, {"land_on_target", o.land_on_target},
+          {"boundary_fixed_stage", o.fix_boundary_first}, {"interior_init", o.harmonic_interior ? "harmonic" : "closest"}, {"land_on_target", o.land_on_target},
           {"land_gamma_rounds", o.land_gamma_rounds}, {"land_gamma_factor", o.land_gamma_factor},
           {"land_barrier_floor", o.land_barrier_floor}, {"land_passes", o.land_passes},
           {"land_pull_rounds", o.land_pull_rounds}, {"land_untangle_rounds", o.land_untangle_rounds},
@@ -308,6 +309,8 @@ VolumeMapRun run_volume_map(VolumeInput& A, VolumeInput& B, const VolumeMapReque
     throw InputError("init " + init + ": expected auto, landmarks, ball or surface-map");
   if (req.boundary_stage != "auto" && req.boundary_stage != "on" && req.boundary_stage != "off")
     throw InputError("boundary stage " + req.boundary_stage + ": expected auto, on or off");
+  if (req.interior_init != "closest" && req.interior_init != "harmonic")
+    throw InputError("interior init " + req.interior_init + ": expected closest or harmonic");
   VolumeMapRun run;
   run.init_detail = init;
   BarycentricMap i12, i21;
@@ -316,6 +319,7 @@ VolumeMapRun run_volume_map(VolumeInput& A, VolumeInput& B, const VolumeMapReque
   else surface_init(A, B, req, progress, run, i12, i21);
   SymmetricVolumeMapOptions o = req.opt;
   o.fix_boundary_first = req.boundary_stage == "on" || (req.boundary_stage == "auto" && init != "landmarks");
+  o.harmonic_interior = req.interior_init == "harmonic";
   run.result = symmetric_volume_map(A.mesh, B.mesh, i12, i21, o, progress);
   measure(A.mesh, B.mesh, run);
   fill_report(A.mesh, B.mesh, req, o, run);

@@ -219,6 +219,43 @@ TEST(ProjectedNewton, ShiftsASingularHessian) {
   EXPECT_EQ(x.tail<12>().cwiseAbs().maxCoeff(), 0.0);
 }
 
+// A model Hessian 16x stiffer than the true one (as the clamped Hessian is where f is
+// concave): each full step goes 1/16 of the way. Expansion doubles an accepted full step
+// while f falls, so 4 doublings reach the minimum in one iteration; without them the
+// iterations crawl (the decrease of each is 1 - (15/16)^2 of what is left).
+TEST(ProjectedNewton, ExpansionLengthensAcceptedStepsOfAStiffModel) {
+  const Eigen::MatrixXi T = two_tets();
+  NewtonValue f = [](const Eigen::VectorXd& z, Eigen::VectorXd* g) {
+    if (g) *g = 2 * (z.array() - 1).matrix();
+    return (z.array() - 1).matrix().squaredNorm();
+  };
+  NewtonHessian h = [](const Eigen::VectorXd&, BlockHessian& H) {
+    for (int v = 0; v < 5; ++v) H.add_diagonal(v, 32.0);
+  };
+  NewtonOptions o;
+  o.max_iterations = 3;
+  auto run = [&](int expansions, Eigen::VectorXd& x) {
+    ProjectedNewton pn(BlockHessian(T, 5, {0, 1, 2, 3, 4}));
+    o.max_expansions = expansions;
+    x = Eigen::VectorXd::Zero(15);
+    return pn.minimize(f, h, x, o);
+  };
+  Eigen::VectorXd x0, x4;
+  const NewtonResult plain = run(0, x0), expanded = run(4, x4);
+  EXPECT_NEAR(plain.f, 15 * std::pow(15.0 / 16.0, 6), 1e-9);  // three steps of 1/16
+  EXPECT_LT(expanded.f, 1e-20);                               // 1/16 * 2^4 = the whole way
+  EXPECT_EQ(plain.evaluations, 1 + 3);
+  EXPECT_LE(x4.maxCoeff(), 1.0 + 1e-12);
+  // One iteration: 3 doublings reach 1/2 of the way; with 6 allowed, the 5th (twice the
+  // way: f as high as at the start) is refused and the search stops there.
+  o.max_iterations = 1;
+  Eigen::VectorXd x3, x6;
+  EXPECT_NEAR(run(3, x3).f, 15 * 0.25, 1e-12);
+  const NewtonResult six = run(6, x6);
+  EXPECT_LT(six.f, 1e-20);
+  EXPECT_EQ(six.evaluations, 1 + 1 + 5);
+}
+
 // Two spring meshes tied vertex to vertex by stiff springs k|x1_v - x2_v - s_v|^2: the
 // coupled solver takes the blocks' Newton steps together (coupled_newton.h).
 namespace {

@@ -394,17 +394,65 @@ TEST(SymmetricVolumeMap, DecreaseRuleComparesEnergiesAtTheFinalBeta) {
 
 TEST(SymmetricVolumeMap, SwappingInputsGivesTheSameMaps) {
   const EndToEnd& e = end_to_end();
-  // Symmetry: (B, A) gives the maps of (A, B) with roles exchanged.
+  // Symmetry: (B, A) gives the maps of (A, B) with roles exchanged, up to the path's
+  // discrete decisions (CG's stop, the stage-2 line search's doublings), which are taken on
+  // sums in another order: 1e-4 here since stage 2 doubles its steps (below 1e-6 without), on a
+  // box of size 1; a formulation that is not symmetric differs by far more.
   double d1 = (e.r.X12 - e.swapped.X21).cwiseAbs().maxCoeff();
   double d2 = (e.r.X21 - e.swapped.X12).cwiseAbs().maxCoeff();
-  EXPECT_LT(d1, 1e-6);
-  EXPECT_LT(d2, 1e-6);
+  std::printf("swap: max |X12 - X21'| %.3g, |X21 - X12'| %.3g\n", d1, d2);
+  EXPECT_LT(d1, 1e-3);
+  EXPECT_LT(d2, 1e-3);
   // Near-inverses: A -> B -> A returns close to the start.
   Eigen::MatrixXd back = map_positions(e.r.map12, e.r.X21, e.B.T);
   double diag = bbox_diagonal(e.A.V);
   double mean = (back - e.A.V).rowwise().norm().mean() / diag;
   std::printf("round trip A->B->A: mean %.4g of the diagonal\n", mean);
   EXPECT_LT(mean, 0.02);
+}
+
+// Sec. 5.1's surface-map start copies each interior vertex's target from its closest
+// boundary vertex: the interior of X is folded onto its boundary. The harmonic extension
+// (ours) starts unfolded from the same exact boundary map, and the boundary-fixed stage
+// then ends no higher in Eq. 25 (to 1e-6) and with no more tets inverted.
+TEST(SymmetricVolumeMap, HarmonicInteriorStartsTheBoundaryFixedStageUnfolded) {
+  const TetMesh A = grid_box(7, 5, 4, 1.0, 0.6, 0.45);
+  TetMesh B = grid_box(6, 6, 4, 1.0, 0.6, 0.45);
+  B.V = apply(B.V);
+  auto unbend = [](const Eigen::MatrixXd& W) {  // the inverse of bend()
+    Eigen::MatrixXd V(W.rows(), 3);
+    for (int i = 0; i < W.rows(); ++i) {
+      const double x = (W(i, 0) - 0.1 * W(i, 2)) / 0.992, z = (W(i, 2) - 0.08 * W(i, 0)) / 0.992;
+      V.row(i) << x, (W(i, 1) - 0.35 * (x - 0.5) * (x - 0.5)) / 1.15, z;
+    }
+    return V;
+  };
+  ASSERT_LT((unbend(apply(A.V)) - A.V).cwiseAbs().maxCoeff(), 1e-12);
+  const BarycentricMap i12 = boundary_initial_map(A, B, apply(boundary_surface(A).surface.V));
+  const BarycentricMap i21 = boundary_initial_map(B, A, unbend(boundary_surface(B).surface.V));
+  SymmetricVolumeMapOptions o;
+  o.max_iterations = 25;
+  o.boundary_fixed_iteration_factor = 1;
+  o.land_on_target = false;
+  const SymmetricVolumeMapResult closest = symmetric_volume_map(A, B, i12, i21, o);
+  o.harmonic_interior = true;
+  const SymmetricVolumeMapResult harmonic = symmetric_volume_map(A, B, i12, i21, o);
+  auto stage = [](const SymmetricVolumeMapResult& r, const std::string& name) {
+    for (const auto& s : r.stages)
+      if (s.name == name) return s;
+    ADD_FAILURE() << "no stage " << name;
+    return SymmetricMapStage{};
+  };
+  const SymmetricMapStage c0 = stage(closest, "init"), h0 = stage(harmonic, "init");
+  const SymmetricMapStage c2 = stage(closest, "boundary-fixed"), h2 = stage(harmonic, "boundary-fixed");
+  std::printf("init inverted: closest %d/%d harmonic %d/%d; boundary-fixed E %.6g / %.6g, inverted %d/%d / %d/%d\n",
+              c0.inverted12, c0.inverted21, h0.inverted12, h0.inverted21, c2.energy, h2.energy,
+              c2.inverted12, c2.inverted21, h2.inverted12, h2.inverted21);
+  EXPECT_GT(c0.inverted12 + c0.inverted21, 100);  // the fold that the harmonic start avoids
+  EXPECT_EQ(h0.inverted12 + h0.inverted21, 0);
+  EXPECT_LT(h0.energy, c0.energy);
+  EXPECT_LE(h2.energy, c2.energy * (1 + 1e-6));
+  EXPECT_LE(h2.inverted12 + h2.inverted21, c2.inverted12 + c2.inverted21);
 }
 
 // Landing on the target (issue 19): X is exactly what the map files hold, and the boundary

@@ -20,6 +20,11 @@ struct NewtonOptions {
   int max_line_search = 30;    // halvings of the step before giving up
   double max_step = 0;         // > 0: scale the Newton step so that no unknown moves further
                                // than this (e.g. a fraction of the mesh's edge length)
+  // > 0: when the first trial step is accepted, try doubling it up to this many times while
+  // each doubling lowers f by Armijo's c1 times its added length (the clamped Hessian sees no
+  // curvature where f is concave, e.g. at inverted tets, so the full step can be far shorter
+  // than the descent it allows).
+  int max_expansions = 0;
 };
 
 struct NewtonResult {

@@ -62,7 +62,17 @@ struct SymmetricVolumeMapOptions {
   double decrease_tol = 1e-7;  // Sec. 5.4 (ii): E_prev - E between outer iterations ...
   double decrease_rel_tol = 1e-6;  // ... or below this times E (ours: on real pairs stage 2
                                    // sat at E = 28.87 falling 4e-7 per iteration for 150)
-  int max_iterations = 50;     // Sec. 5.4 (iii): outer iterations per stage
+  int max_iterations = 50;     // Sec. 5.4 (iii): outer iterations per stage (stage 4)
+  // Stage 2 (boundary fixed), ours. Where the fixed boundary forces folds (the busts: ~3k
+  // inverted tets that only freeing the boundary undoes), Eq. 25 creeps down as the folded
+  // tets take up the distortion of their neighbours: a projected Newton step, blind to the
+  // negative curvature there, is accepted whole and moves far less than the descent allows.
+  // So an accepted full step is doubled up to this many times while Eq. 25 keeps falling
+  // (NewtonOptions::max_expansions), and stage 2's cap is this factor times max_iterations
+  // (150 outer iterations of 2 Newton steps each by default, where Sec. 5.4 caps 50 X-steps
+  // taken to convergence). Measured on the busts (docs/methods.md, "Stage 2's creep").
+  int boundary_fixed_expansions = 6;
+  int boundary_fixed_iteration_factor = 3;
   int min_iterations = 1;      // outer iterations before a stopping rule may apply
   // Ours (issue 19): Anderson acceleration (optim/anderson.h) of the P/X alternation of
   // stages 2 and 4 with this memory, once beta and gamma are final; each proposal is kept
@@ -132,6 +142,11 @@ struct SymmetricVolumeMapOptions {
   // (foldover_free.h) around them, with 1, 2, 4, ... up to this many rings of vertices free,
   // each kept when it inverts fewer tets (ours). 0 = off.
   int land_regularized_rings = 8;
+  // Sec. 5.1 copies each interior vertex's target from its closest boundary vertex, which
+  // folds the interior of X onto its boundary. Ours: with this set the interior rows of X
+  // start at the harmonic extension of its boundary rows instead (harmonic_extension.h), so
+  // the boundary-fixed stage starts from a map that is not collapsed (docs/methods.md).
+  bool harmonic_interior = false;
   bool fix_boundary_first = true;  // Algorithm 1 lines 6-10 (stage 2): boundary of X fixed,
                                    // boundary rows of P restored each iteration
   bool boundary_to_boundary = false;  // Sec. 5.2: hard constraint P in P*_ij (boundary rows

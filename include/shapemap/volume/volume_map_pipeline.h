@@ -46,6 +46,7 @@ struct VolumeMapRequest {
   std::string init = "auto";          // auto | landmarks | ball | surface-map (Sec. 5.1)
   std::string auto_surface = "elastic";  // init auto: bim, or bim + elastic refinement
   std::string boundary_stage = "auto";   // Algorithm 1 stage 2: on | off | auto (off from landmarks)
+  std::string interior_init = "closest";  // X's interior at the start: closest (Sec. 5.1) | harmonic
   bool strict = false;                // refuse defective boundaries instead of repairing them
   SymmetricVolumeMapOptions opt;      // Eq. 25 weights and stages
   std::vector<int> landmarks_A, landmarks_B;   // init landmarks: vertices of the tet meshes
