@@ -102,6 +102,9 @@ struct Side {
   ElasticPreconditioner pre;
   Eigen::VectorXd pre_diag;
   double pre_theta = 1;
+  // the last accepted step of an L-BFGS iteration with curvature pairs, kept across Y steps
+  // (ElasticOptions::interpolate_initial_step)
+  double alpha_last = 1;
   // safe projection (ElasticOptions::safe_projection): the previous P, the target's unit face
   // normals, per-face flags, and how many rows kept their previous value so far
   BarycentricMap P_prev;
@@ -342,6 +345,7 @@ int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bij
   ++evaluations;
   parts = obj.last;
   int iterations = 0;
+  double last_decrease = 0;  // f_{k-1} - f_k of the last accepted step (0: none yet in this Y step)
   bool restarted = false;  // the last direction was steepest descent after a reset
   if (std::isfinite(f) && L.g.lpNorm<Eigen::Infinity>() >= opt.inner_tol) {
     while (iterations < opt.inner_max_iterations) {
@@ -361,6 +365,11 @@ int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bij
       // would end the solve on that criterion anyway) instead of halving down to rounding
       // noise (up to 40 evaluations, then as many again from steepest descent).
       double alpha = L.H.stored() == 0 && !pre ? std::min(1.0, 1.0 / std::sqrt(-gd)) : 1.0;
+      // ElasticOptions::interpolate_initial_step: the larger of the last accepted step and
+      // the step that repeats the last decrease (N&W Eq. 3.60), at most 1
+      const bool from_memory = L.H.stored() > 0;
+      if (opt.interpolate_initial_step)
+        alpha = std::min(alpha, std::max(s.alpha_last, last_decrease > 0 ? 1.01 * 2 * last_decrease / -gd : 1.0));
       const double c1 = 1e-4;
       const double min_decrease =
           f_tol > 0 ? f_tol * std::max(1.0, std::abs(f)) : 0.0;
@@ -397,6 +406,8 @@ int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bij
         break;
       }
       restarted = false;
+      // steps without curvature pairs (H0 alone) may need a long backtrack: not a guide
+      if (from_memory) s.alpha_last = alpha;
       L.H.add_pair(L.x, L.x_new, L.g, L.g_new);
       if (pre && opt.precondition_scaling) {  // theta = s'Ks / s'y, s = alpha d: H0 = (theta K)^-1 fits the pair
         const double sy = alpha * L.d.dot(L.g_new - L.g);
@@ -404,6 +415,7 @@ int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bij
         if (sy > 0 && sKs > 0) s.pre_theta = sKs / sy;
       }
       const double f_old = f;
+      last_decrease = f - f_new;
       L.x.swap(L.x_new);
       L.g.swap(L.g_new);
       f = f_new;
