@@ -315,7 +315,7 @@ void update_preconditioner(Side& s, const Side& t, double beta, double gamma, bo
   // a vertex in no face has no mass: keep K positive definite
   const double floor = 1e-12 * s.pre_diag.cwiseAbs().maxCoeff();
   s.pre_diag = s.pre_diag.cwiseMax(floor > 0 ? floor : 1e-300);
-  s.pre.set_diagonal(s.pre_diag);
+  s.pre.update_diagonal(s.pre_diag, opt.precondition_refactor_tol);
 }
 
 int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bijective,

@@ -79,6 +79,11 @@ struct ElasticOptions {
   // 0 = off: H0 = gamma I (Nocedal & Wright Eq. 7.20).
   double precondition_stiffness = 1;
   bool precondition_scaling = true;  // theta as above (false: theta = 1)
+  // K is refactored at the start of a Y step only when some entry of its diagonal (beta and
+  // Q change) has moved by more than this factor since the last factorization
+  // (ElasticPreconditioner::update_diagonal; issue 20 speed: a factorization at 12k vertices
+  // costs about as much as two energy evaluations). 0 = every Y step.
+  double precondition_refactor_tol = 0.25;
   // First trial step of the Y-step line search (issue 20 speed, our addition): instead of 1,
   // alpha0 = min(1, max(alpha_last, 1.01 * 2 (f_{k-1} - f_k) / |g'd|)): the larger of the
   // last accepted step (of an iteration with curvature pairs, kept across Y steps) and the
