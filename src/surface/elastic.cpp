@@ -138,8 +138,12 @@ bool mapped_face_folds(const Side& s, const Side& t, const BarycentricMap& P, in
 int keep_rows_that_fold(Side& s, const Side& t) {
   const int m = int(s.F.rows());
   if (s.target_normals.rows() != t.F.rows()) s.target_normals = face_normals(t.X, t.F);
-  s.fold_prev.resize(m);
-  for (int f = 0; f < m; ++f) s.fold_prev[f] = mapped_face_folds(s, t, s.P_prev, f);
+  // fold_prev: the flags of P_prev = the P this function returned last time. A face that was
+  // fine before that call is fine after it (else the loop below would not have ended), so
+  // only the faces flagged then need a new test (the flags depend on P and fixed data only).
+  if (int(s.fold_prev.size()) != m) s.fold_prev.assign(m, 1);
+  for (int f = 0; f < m; ++f)
+    if (s.fold_prev[f]) s.fold_prev[f] = mapped_face_folds(s, t, s.P_prev, f);
   int kept = 0;
   for (bool changed = true; changed;) {
     changed = false;
