@@ -416,7 +416,7 @@ int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bij
       if (pre && opt.precondition_scaling) {  // theta = s'Ks / s'y, s = alpha d: H0 = (theta K)^-1 fits the pair
         const double sy = alpha * L.d.dot(L.g_new - L.g);
         const double sKs = alpha * alpha * s.pre.quadratic_form(L.d.data());
-        if (sy > 0 && sKs > 0) s.pre_theta = sKs / sy;
+        if (sy > 0 && sKs > 0) s.pre_theta = std::min(opt.precondition_theta_max, sKs / sy);
       }
       const double f_old = f;
       last_decrease = f - f_new;

@@ -79,6 +79,11 @@ struct ElasticOptions {
   // 0 = off: H0 = gamma I (Nocedal & Wright Eq. 7.20).
   double precondition_stiffness = 1;
   bool precondition_scaling = true;  // theta as above (false: theta = 1)
+  // Upper bound on the scale of H0 = theta' K^-1, theta' = s'Ks / s'y (issue 20 speed): 1 =
+  // never a larger step than K^-1 g, i.e. never a model softer than K. While beta is small,
+  // pairs along which the membrane is softer than K (s'y < s'Ks) made theta' 2-3 and the
+  // next unit step overshoot, in the directions where the bending term grows fastest.
+  double precondition_theta_max = 1;
   // K is refactored at the start of a Y step only when some entry of its diagonal (beta and
   // Q change) has moved by more than this factor since the last factorization
   // (ElasticPreconditioner::update_diagonal; issue 20 speed: a factorization at 12k vertices
