@@ -43,7 +43,9 @@ double default_eta(const GeneratedPair& pair, const BIMResult& bim) {
 }
 // Speed options from the environment (issue 20): SHAPEMAP_ELASTIC_PRECOND
 // (ElasticOptions::precondition_stiffness), SHAPEMAP_ELASTIC_PRECOND_SCALE (0/1,
-// precondition_scaling), SHAPEMAP_ELASTIC_INNER_F_TOL (inner_f_tol).
+// precondition_scaling), SHAPEMAP_ELASTIC_INNER_F_TOL (inner_f_tol), SHAPEMAP_ELASTIC_INTERP_STEP
+// (0/1, interpolate_initial_step), SHAPEMAP_ELASTIC_REFACTOR_TOL (precondition_refactor_tol),
+// SHAPEMAP_ELASTIC_THETA_MAX (precondition_theta_max).
 void env_options(ElasticOptions& o) {
   if (const char* v = std::getenv("SHAPEMAP_ELASTIC_PRECOND")) o.precondition_stiffness = std::atof(v);
   if (const char* v = std::getenv("SHAPEMAP_ELASTIC_PRECOND_SCALE")) o.precondition_scaling = std::atoi(v) != 0;
@@ -52,6 +54,9 @@ void env_options(ElasticOptions& o) {
   if (const char* v = std::getenv("SHAPEMAP_ELASTIC_START_ITERATIONS")) o.inner_f_tol_start_iterations = std::atoi(v);
   if (const char* v = std::getenv("SHAPEMAP_ELASTIC_INNER_MAX")) o.inner_max_iterations = std::atoi(v);
   if (const char* v = std::getenv("SHAPEMAP_ELASTIC_MAX_OUTER")) o.max_outer_iterations = std::atoi(v);
+  if (const char* v = std::getenv("SHAPEMAP_ELASTIC_INTERP_STEP")) o.interpolate_initial_step = std::atoi(v) != 0;
+  if (const char* v = std::getenv("SHAPEMAP_ELASTIC_REFACTOR_TOL")) o.precondition_refactor_tol = std::atof(v);
+  if (const char* v = std::getenv("SHAPEMAP_ELASTIC_THETA_MAX")) o.precondition_theta_max = std::atof(v);
 }
 double now() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();

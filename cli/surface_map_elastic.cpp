@@ -73,6 +73,9 @@ void add_elastic_options(CLI::App* app, ElasticSettings& o, std::string& truth_a
   app->add_flag("--elastic-no-precondition", o.no_precondition,
                 "elastic: plain L-BFGS in the Y steps (default: initial inverse Hessian from "
                 "the cotangent Laplacian and the mismatch terms, docs/methods.md)");
+  app->add_flag("--elastic-unit-first-step", o.unit_first_step,
+                "elastic: every Y-step line search tries the unit step first (default: after "
+                "the first iteration, the step that repeats the last decrease, docs/methods.md)");
   app->add_option("--truth", truth_ab,
                   "ground-truth map A->B (map file) for the geodesic error in report.json");
 }

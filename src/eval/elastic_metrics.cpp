@@ -125,8 +125,14 @@ FoldCounts fold_counts(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F, const
                           .cross(Eigen::Vector3d(X.row(F(f, 2))) - x0)
                           .norm();
     const Eigen::Vector3d n = (y1 - y0).cross(y2 - y0);
-    // the same expression as area_distortion, so that the counts agree bit for bit
-    if (!(std::log(n.norm() / a0) > log_tol)) {
+    // the same expression as area_distortion, so that the counts agree bit for bit; the log
+    // (the elastic loop counts folds every outer iteration) only near the threshold, where
+    // rounding could make the two tests differ
+    const double r = n.norm() / a0;
+    const bool collapsed = degenerate_tol > 0 && r > 2 * degenerate_tol   ? false
+                           : degenerate_tol > 0 && r < 0.5 * degenerate_tol ? true
+                                                                           : !(std::log(r) > log_tol);
+    if (collapsed) {
       ++c.degenerate;
       if (faces) (*faces)[f] = 2;
       continue;

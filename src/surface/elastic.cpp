@@ -102,6 +102,9 @@ struct Side {
   ElasticPreconditioner pre;
   Eigen::VectorXd pre_diag;
   double pre_theta = 1;
+  // the last accepted step of an L-BFGS iteration with curvature pairs, kept across Y steps
+  // (ElasticOptions::interpolate_initial_step)
+  double alpha_last = 1;
   // safe projection (ElasticOptions::safe_projection): the previous P, the target's unit face
   // normals, per-face flags, and how many rows kept their previous value so far
   BarycentricMap P_prev;
@@ -135,8 +138,12 @@ bool mapped_face_folds(const Side& s, const Side& t, const BarycentricMap& P, in
 int keep_rows_that_fold(Side& s, const Side& t) {
   const int m = int(s.F.rows());
   if (s.target_normals.rows() != t.F.rows()) s.target_normals = face_normals(t.X, t.F);
-  s.fold_prev.resize(m);
-  for (int f = 0; f < m; ++f) s.fold_prev[f] = mapped_face_folds(s, t, s.P_prev, f);
+  // fold_prev: the flags of P_prev = the P this function returned last time. A face that was
+  // fine before that call is fine after it (else the loop below would not have ended), so
+  // only the faces flagged then need a new test (the flags depend on P and fixed data only).
+  if (int(s.fold_prev.size()) != m) s.fold_prev.assign(m, 1);
+  for (int f = 0; f < m; ++f)
+    if (s.fold_prev[f]) s.fold_prev[f] = mapped_face_folds(s, t, s.P_prev, f);
   int kept = 0;
   for (bool changed = true; changed;) {
     changed = false;
@@ -312,7 +319,7 @@ void update_preconditioner(Side& s, const Side& t, double beta, double gamma, bo
   // a vertex in no face has no mass: keep K positive definite
   const double floor = 1e-12 * s.pre_diag.cwiseAbs().maxCoeff();
   s.pre_diag = s.pre_diag.cwiseMax(floor > 0 ? floor : 1e-300);
-  s.pre.set_diagonal(s.pre_diag);
+  s.pre.update_diagonal(s.pre_diag, opt.precondition_refactor_tol);
 }
 
 int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bijective,
@@ -342,6 +349,7 @@ int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bij
   ++evaluations;
   parts = obj.last;
   int iterations = 0;
+  double last_decrease = 0;  // f_{k-1} - f_k of the last accepted step (0: none yet in this Y step)
   bool restarted = false;  // the last direction was steepest descent after a reset
   if (std::isfinite(f) && L.g.lpNorm<Eigen::Infinity>() >= opt.inner_tol) {
     while (iterations < opt.inner_max_iterations) {
@@ -361,6 +369,11 @@ int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bij
       // would end the solve on that criterion anyway) instead of halving down to rounding
       // noise (up to 40 evaluations, then as many again from steepest descent).
       double alpha = L.H.stored() == 0 && !pre ? std::min(1.0, 1.0 / std::sqrt(-gd)) : 1.0;
+      // ElasticOptions::interpolate_initial_step: the larger of the last accepted step and
+      // the step that repeats the last decrease (N&W Eq. 3.60), at most 1
+      const bool from_memory = L.H.stored() > 0;
+      if (opt.interpolate_initial_step)
+        alpha = std::min(alpha, std::max(s.alpha_last, last_decrease > 0 ? 1.01 * 2 * last_decrease / -gd : 1.0));
       const double c1 = 1e-4;
       const double min_decrease =
           f_tol > 0 ? f_tol * std::max(1.0, std::abs(f)) : 0.0;
@@ -397,13 +410,16 @@ int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bij
         break;
       }
       restarted = false;
+      // steps without curvature pairs (H0 alone) may need a long backtrack: not a guide
+      if (from_memory) s.alpha_last = alpha;
       L.H.add_pair(L.x, L.x_new, L.g, L.g_new);
       if (pre && opt.precondition_scaling) {  // theta = s'Ks / s'y, s = alpha d: H0 = (theta K)^-1 fits the pair
         const double sy = alpha * L.d.dot(L.g_new - L.g);
         const double sKs = alpha * alpha * s.pre.quadratic_form(L.d.data());
-        if (sy > 0 && sKs > 0) s.pre_theta = sKs / sy;
+        if (sy > 0 && sKs > 0) s.pre_theta = std::min(opt.precondition_theta_max, sKs / sy);
       }
       const double f_old = f;
+      last_decrease = f - f_new;
       L.x.swap(L.x_new);
       L.g.swap(L.g_new);
       f = f_new;

@@ -42,6 +42,18 @@ void ElasticPreconditioner::set_diagonal(const Eigen::VectorXd& d) {
   }
   chol_.factorize(K_);
   factored_ = true;
+  d_factored_ = d;
+}
+
+bool ElasticPreconditioner::update_diagonal(const Eigen::VectorXd& d, double tol) {
+  if (factored_ && tol > 0 && d.size() == d_factored_.size()) {
+    bool close = true;
+    for (Eigen::Index i = 0; i < d.size() && close; ++i)
+      close = d(i) <= (1 + tol) * d_factored_(i) && d_factored_(i) <= (1 + tol) * d(i);
+    if (close) return false;
+  }
+  set_diagonal(d);
+  return true;
 }
 
 void ElasticPreconditioner::apply(const double* in, double* out) const {

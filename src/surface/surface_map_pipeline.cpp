@@ -231,6 +231,7 @@ nlohmann::json elastic_parameters_json(const ElasticOptions& eo, const std::stri
           {"precondition_stiffness", eo.precondition_stiffness},
           {"inner_f_tol_start", eo.inner_f_tol_start},
           {"inner_f_tol_start_iterations", eo.inner_f_tol_start_iterations},
+          {"interpolate_initial_step", eo.interpolate_initial_step},
           {"unit_area", eo.normalize_area},
           {"keep_orientation", eo.keep_orientation}, {"gamma_ramp", eo.gamma_ramp},
           {"safe_projection", eo.safe_projection}};
@@ -476,6 +477,7 @@ ElasticOptions elastic_options_from_settings(const ElasticSettings& o, const Tri
   if (o.ramp_inner_f_tol >= 0) eo.inner_f_tol_ramp = o.ramp_inner_f_tol;
   if (o.no_precondition) eo.precondition_stiffness = 0;
   if (o.start_inner_f_tol >= 0) eo.inner_f_tol_start = o.start_inner_f_tol;
+  if (o.unit_first_step) eo.interpolate_initial_step = false;
   return eo;
 }
 

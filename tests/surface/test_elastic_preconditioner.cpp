@@ -96,3 +96,50 @@ TEST(ElasticPreconditioner, IsTheHessianOfTheModelAndSolvesWithIt) {
   K.apply(v.data(), v.data());
   EXPECT_EQ((v - w).cwiseAbs().maxCoeff(), 0.0);
 }
+
+// update_diagonal (ElasticOptions::precondition_refactor_tol): a diagonal within the factor
+// (1 + tol) of the factored one keeps the factorization (solves and x'Kx unchanged), and
+// the bound it relies on holds: x'K_new x / x'K_old x lies in [1/(1+tol), 1+tol]; one entry
+// beyond the factor refactors and solves as a fresh factorization of the new diagonal does.
+TEST(ElasticPreconditioner, LaggedRefactorizationWithinTheFactor) {
+  const GeneratedPair pair = make_creature_pair(2, PairKind::NonIsometric, 500);
+  const Eigen::MatrixXd& X = pair.A.V;
+  const Eigen::MatrixXi& F = pair.A.F;
+  const int n = int(X.rows());
+  const double kappa = 20, tol = 0.25;
+  const Eigen::VectorXd d0 = 2e3 * lumped_mass(X, F);
+  ElasticPreconditioner K(X, F, kappa);
+  EXPECT_TRUE(K.update_diagonal(d0, tol));  // the first call always factors
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> U(1 / 1.2, 1.2);
+  std::normal_distribution<double> N(0, 1);
+  Eigen::VectorXd d1 = d0;
+  for (int i = 0; i < n; ++i) d1(i) *= U(rng);
+  Eigen::VectorXd x(3 * n);
+  for (int i = 0; i < 3 * n; ++i) x(i) = N(rng);
+  Eigen::VectorXd s0(3 * n), s1(3 * n);
+  K.apply(x.data(), s0.data());
+  const double q0 = K.quadratic_form(x.data());
+  EXPECT_FALSE(K.update_diagonal(d1, tol));
+  K.apply(x.data(), s1.data());
+  EXPECT_EQ((s1 - s0).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_EQ(K.quadratic_form(x.data()), q0);
+  // the bound, with a fresh factorization of d1
+  ElasticPreconditioner K1(X, F, kappa);
+  K1.set_diagonal(d1);
+  const double ratio = K1.quadratic_form(x.data()) / q0;
+  EXPECT_LE(ratio, 1 + tol);
+  EXPECT_GE(ratio, 1 / (1 + tol));
+  // one entry beyond the factor: refactored, and it solves with the new K
+  Eigen::VectorXd d2 = d1;
+  d2(n / 2) = 1.3 * d0(n / 2);
+  EXPECT_TRUE(K.update_diagonal(d2, tol));
+  ElasticPreconditioner K2(X, F, kappa);
+  K2.set_diagonal(d2);
+  Eigen::VectorXd a(3 * n), b(3 * n);
+  K.apply(x.data(), a.data());
+  K2.apply(x.data(), b.data());
+  EXPECT_LT((a - b).cwiseAbs().maxCoeff(), 1e-12 * b.cwiseAbs().maxCoeff());
+  // tol = 0: always refactors
+  EXPECT_TRUE(K.update_diagonal(d2, 0));
+}

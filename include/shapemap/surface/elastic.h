@@ -79,6 +79,26 @@ struct ElasticOptions {
   // 0 = off: H0 = gamma I (Nocedal & Wright Eq. 7.20).
   double precondition_stiffness = 1;
   bool precondition_scaling = true;  // theta as above (false: theta = 1)
+  // Upper bound on the scale of H0 = theta' K^-1, theta' = s'Ks / s'y (issue 20 speed): 1 =
+  // never a larger step than K^-1 g, i.e. never a model softer than K. While beta is small,
+  // pairs along which the membrane is softer than K (s'y < s'Ks) made theta' 2-3 and the
+  // next unit step overshoot, in the directions where the bending term grows fastest.
+  double precondition_theta_max = 1;
+  // K is refactored at the start of a Y step only when some entry of its diagonal (beta and
+  // Q change) has moved by more than this factor since the last factorization
+  // (ElasticPreconditioner::update_diagonal; issue 20 speed: a factorization at 12k vertices
+  // costs about as much as two energy evaluations). 0 = every Y step.
+  double precondition_refactor_tol = 0.25;
+  // First trial step of the Y-step line search (issue 20 speed, our addition): instead of 1,
+  // alpha0 = min(1, max(alpha_last, 1.01 * 2 (f_{k-1} - f_k) / |g'd|)): the larger of the
+  // last accepted step (of an iteration with curvature pairs, kept across Y steps) and the
+  // step that repeats the last decrease (Nocedal & Wright Eq. 3.60). While beta is small the
+  // unit step of the preconditioned direction turns triangles of Y by tens of degrees, the
+  // bending term (Eq. 9) grows far faster than K's quadratic model and the unit step was
+  // rejected in about half of all iterations (docs/methods.md). Eq. 3.60 alone ratchets
+  // down after one short step (a distorted 1k-vertex start: E 163 instead of 55 after 30
+  // iterations per side); the max with alpha_last does not.
+  bool interpolate_initial_step = true;
   // Keep each side's L-BFGS curvature pairs from one outer iteration's Y step to the next
   // (our addition, docs/methods.md: a quasi-Newton Hessian approximation is carried over,
   // as BFGS in the paper could be). false = every Y step starts from steepest descent.

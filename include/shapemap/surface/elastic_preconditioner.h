@@ -27,6 +27,12 @@ class ElasticPreconditioner {
   int num_vertices() const { return int(L_.rows()); }
   // Factors K = kappa L_X + diag(d), d: n values > 0.
   void set_diagonal(const Eigen::VectorXd& d);
+  // The same, but keeps the current factorization when every d_i is within a factor
+  // (1 + tol) of the diagonal it was factored with: then K_old and K_new bound each other
+  // within that factor (x'Kx = kappa x'L_X x + sum d_i x_i^2), so H0 = K_old^-1 is as good a
+  // preconditioner up to that factor, which the scaling theta absorbs. Returns true when it
+  // refactored. tol = 0: always.
+  bool update_diagonal(const Eigen::VectorXd& d, double tol);
   // out = K^-1 in; in, out: 3n values, row-major positions (v[3i+k]); may alias.
   void apply(const double* in, double* out) const;
   // v^T K v for v of 3n values (row-major positions).
@@ -39,6 +45,7 @@ class ElasticPreconditioner {
   void rebuild_diagonal_index();
   SparseCholesky chol_{SparseCholesky::Method::Simplicial};
   bool analyzed_ = false, factored_ = false;
+  Eigen::VectorXd d_factored_;     // the diagonal d of the current factorization
   mutable Eigen::MatrixXd rhs_;    // n×3 scratch
 };
 
