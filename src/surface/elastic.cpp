@@ -413,7 +413,7 @@ int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bij
       // steps without curvature pairs (H0 alone) may need a long backtrack: not a guide
       if (from_memory) s.alpha_last = alpha;
       L.H.add_pair(L.x, L.x_new, L.g, L.g_new);
-      if (pre && opt.precondition_scaling) {  // theta = s'Ks / s'y, s = alpha d: H0 = (theta K)^-1 fits the pair
+      if (pre && opt.precondition_scaling) {  // theta' = s'Ks / s'y, s = alpha d: H0 = theta' K^-1 fits the pair
         const double sy = alpha * L.d.dot(L.g_new - L.g);
         const double sKs = alpha * alpha * s.pre.quadratic_form(L.d.data());
         if (sy > 0 && sKs > 0) s.pre_theta = std::min(opt.precondition_theta_max, sKs / sy);

@@ -75,7 +75,8 @@ struct ElasticOptions {
   // Y-step L-BFGS with the initial inverse Hessian H0 = (theta K)^-1 (issue 20 speed, our
   // addition; surface/elastic_preconditioner.h): K = kappa L_X + 2 beta M + 2 gamma
   // diag(Q^T M~ 1), kappa = precondition_stiffness * alpha * mu (alpha mu L_X: the Hessian of
-  // Eq. 7's tr G term at the rest state); theta = s'Ks / s'y from the newest curvature pair.
+  // Eq. 7's tr G term at the rest state); theta = s'y / s'Ks from the newest curvature pair
+  // (so H0 = theta' K^-1 with theta' = s'Ks / s'y, below).
   // 0 = off: H0 = gamma I (Nocedal & Wright Eq. 7.20).
   double precondition_stiffness = 1;
   bool precondition_scaling = true;  // theta as above (false: theta = 1)
