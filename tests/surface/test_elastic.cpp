@@ -127,6 +127,23 @@ void fd_check(const std::function<double(const Eigen::MatrixXd&)>& f, const Eige
   EXPECT_LT(max_err, rel_tol * std::max(1.0, max_g)) << "max |g| " << max_g;
 }
 
+
+// The refinement from a distorted truth.
+ElasticResult run_from(const DistortedTruth& start, const ElasticOptions& o) {
+  return elastic_correspondence(start.pair.A, start.pair.B, start.initAB, start.initBA, o);
+}
+
+// A fixed work budget for comparing two settings: `outer` outer iterations of at most `inner`
+// L-BFGS iterations per side, no stalled-progress stop.
+ElasticOptions fixed_budget(int outer, int inner) {
+  ElasticOptions o;
+  o.max_outer_iterations = outer;
+  o.inner_f_tol = 0;
+  o.inner_f_tol_ramp = 0;
+  o.inner_f_tol_start = 0;
+  o.inner_max_iterations = inner;
+  return o;
+}
 }  // namespace
 
 TEST(Elastic, IdentityHasZeroEnergy) {
@@ -506,15 +523,11 @@ TEST(Elastic, RampInnerToleranceOnlyLoosensTheRamp) {
 TEST(Elastic, PreconditionedYStepsLowerTheEnergyFaster) {
   const DistortedTruth start;
   const GeneratedPair& pair = start.pair;
-  ElasticOptions o;
-  o.max_outer_iterations = 1;
-  o.inner_f_tol = 0;
-  o.inner_f_tol_ramp = 0;
-  o.inner_max_iterations = 20;
+  ElasticOptions o = fixed_budget(1, 20);
   o.precondition_stiffness = 0;
-  const ElasticResult r0 = elastic_correspondence(pair.A, pair.B, start.initAB, start.initBA, o);
+  const ElasticResult r0 = run_from(start, o);
   o.precondition_stiffness = 1;
-  const ElasticResult r1 = elastic_correspondence(pair.A, pair.B, start.initAB, start.initBA, o);
+  const ElasticResult r1 = run_from(start, o);
   ASSERT_EQ(r0.history.size(), 1u);
   ASSERT_EQ(r1.history.size(), 1u);
   EXPECT_LT(r1.history[0].energy, r0.history[0].energy);
@@ -524,7 +537,7 @@ TEST(Elastic, PreconditionedYStepsLowerTheEnergyFaster) {
   ElasticOptions d;  // defaults (preconditioned), a short run
   d.max_outer_iterations = 30;
   d.beta_ramp_iterations = 20;
-  const ElasticResult r = elastic_correspondence(pair.A, pair.B, start.initAB, start.initBA, d);
+  const ElasticResult r = run_from(start, d);
   for (const auto& it : r.history) EXPECT_TRUE(std::isfinite(it.energy));
   validate_map(r.map_AB, pair.A.num_vertices(), pair.B.num_faces(), 3, "AB");
   validate_map(r.map_BA, pair.B.num_vertices(), pair.A.num_faces(), 3, "BA");
@@ -538,16 +551,11 @@ TEST(Elastic, PreconditionedYStepsLowerTheEnergyFaster) {
 TEST(Elastic, InterpolatedFirstTrialStepNeedsFewerEvaluations) {
   const DistortedTruth start;
   const GeneratedPair& pair = start.pair;
-  ElasticOptions o;
-  o.max_outer_iterations = 1;
-  o.inner_f_tol = 0;
-  o.inner_f_tol_ramp = 0;
-  o.inner_f_tol_start = 0;
-  o.inner_max_iterations = 30;
+  ElasticOptions o = fixed_budget(1, 30);
   o.interpolate_initial_step = false;
-  const ElasticResult r0 = elastic_correspondence(pair.A, pair.B, start.initAB, start.initBA, o);
+  const ElasticResult r0 = run_from(start, o);
   o.interpolate_initial_step = true;
-  const ElasticResult r1 = elastic_correspondence(pair.A, pair.B, start.initAB, start.initBA, o);
+  const ElasticResult r1 = run_from(start, o);
   ASSERT_EQ(r0.history.size(), 1u);
   ASSERT_EQ(r1.history.size(), 1u);
   const ElasticIterate &a = r0.history[0], &b = r1.history[0];
@@ -565,19 +573,13 @@ TEST(Elastic, InterpolatedFirstTrialStepNeedsFewerEvaluations) {
 // (within 5%).
 TEST(Elastic, CappedPreconditionerScale) {
   const DistortedTruth start;
-  const GeneratedPair& pair = start.pair;
-  ElasticOptions o;
-  o.max_outer_iterations = 10;
-  o.inner_f_tol = 0;
-  o.inner_f_tol_ramp = 0;
-  o.inner_f_tol_start = 0;
-  o.inner_max_iterations = 30;
+  ElasticOptions o = fixed_budget(10, 30);
   o.precondition_theta_max = 1e300;
-  const ElasticResult r0 = elastic_correspondence(pair.A, pair.B, start.initAB, start.initBA, o);
+  const ElasticResult r0 = run_from(start, o);
   o.precondition_theta_max = 1;
-  const ElasticResult r1 = elastic_correspondence(pair.A, pair.B, start.initAB, start.initBA, o);
+  const ElasticResult r1 = run_from(start, o);
   o.precondition_theta_max = 0.25;
-  const ElasticResult r2 = elastic_correspondence(pair.A, pair.B, start.initAB, start.initBA, o);
+  const ElasticResult r2 = run_from(start, o);
   EXPECT_EQ((r0.Y - r1.Y).cwiseAbs().maxCoeff(), 0.0);
   EXPECT_GT((r0.Y - r2.Y).cwiseAbs().maxCoeff(), 0.0);
   const double e0 = r0.history.back().energy, e2 = r2.history.back().energy;

@@ -47,11 +47,16 @@ double model_energy(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F, const Ei
 
 }  // namespace
 
-TEST(ElasticPreconditioner, IsTheHessianOfTheModelAndSolvesWithIt) {
+// The surface both tests precondition on: a 500-vertex generated creature.
+class ElasticPreconditionerOnCreature : public ::testing::Test {
+ protected:
   const GeneratedPair pair = make_creature_pair(2, PairKind::NonIsometric, 500);
   const Eigen::MatrixXd& X = pair.A.V;
   const Eigen::MatrixXi& F = pair.A.F;
   const int n = int(X.rows());
+};
+
+TEST_F(ElasticPreconditionerOnCreature, IsTheHessianOfTheModelAndSolvesWithIt) {
   const double kappa = 20, beta = 3e3;
   const Eigen::VectorXd m = lumped_mass(X, F);
   std::mt19937 rng(3);
@@ -101,11 +106,7 @@ TEST(ElasticPreconditioner, IsTheHessianOfTheModelAndSolvesWithIt) {
 // (1 + tol) of the factored one keeps the factorization (solves and x'Kx unchanged), and
 // the bound it relies on holds: x'K_new x / x'K_old x lies in [1/(1+tol), 1+tol]; one entry
 // beyond the factor refactors and solves as a fresh factorization of the new diagonal does.
-TEST(ElasticPreconditioner, LaggedRefactorizationWithinTheFactor) {
-  const GeneratedPair pair = make_creature_pair(2, PairKind::NonIsometric, 500);
-  const Eigen::MatrixXd& X = pair.A.V;
-  const Eigen::MatrixXi& F = pair.A.F;
-  const int n = int(X.rows());
+TEST_F(ElasticPreconditionerOnCreature, LaggedRefactorizationWithinTheFactor) {
   const double kappa = 20, tol = 0.25;
   const Eigen::VectorXd d0 = 2e3 * lumped_mass(X, F);
   ElasticPreconditioner K(X, F, kappa);
