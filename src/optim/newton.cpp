@@ -67,7 +67,7 @@ NewtonResult newton_descent(const NewtonValue& f, const NewtonDirection& directi
       const double longest = d.lpNorm<Eigen::Infinity>();
       if (longest > opt.max_step) step = opt.max_step / longest;
     }
-    double first_step = step;
+    const double first_step = step;
     // Backtracking (Armijo) on the full energy.
     bool accepted = false;
     double f_new = fx;
@@ -82,8 +82,9 @@ NewtonResult newton_descent(const NewtonValue& f, const NewtonDirection& directi
       }
       step *= 0.5;
     }
-    // Expansion (NewtonOptions::max_expansions): only after a first trial that was accepted.
-    for (int e = 0; accepted && e < opt.max_expansions && f_new < fx && step == first_step; ++e) {
+    // Expansion (NewtonOptions::max_expansions): only when the first trial was accepted.
+    const bool expand = accepted && step == first_step;
+    for (int e = 0; expand && e < opt.max_expansions; ++e) {
       x_try = x + 2 * step * d;
       const double f_try = f(x_try, &g_try);
       ++res.evaluations;
@@ -95,7 +96,6 @@ NewtonResult newton_descent(const NewtonValue& f, const NewtonDirection& directi
       g_new.swap(g_try);
       f_new = f_try;
       step *= 2;
-      first_step = step;
     }
     res.seconds_value += seconds_since(t);
     ++res.iterations;

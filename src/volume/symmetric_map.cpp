@@ -1665,7 +1665,8 @@ class SymmetricMapSolver {
     }
     AndersonAcceleration aa(opt_.anderson_memory);
     Eigen::VectorXd plain;  // G(x_k) when X holds an accelerated proposal
-    const int max_iterations = opt_.max_iterations * (fix_boundary ? std::max(1, opt_.boundary_fixed_iteration_factor) : 1);
+    const int max_iterations =
+        opt_.max_iterations * (fix_boundary ? std::max(1, opt_.boundary_fixed_iteration_factor) : 1);
     for (int it = 0; it < max_iterations; ++it) {
       beta_ = beta_at(global_iter_);
       gamma_ = gamma_at(global_iter_);
