@@ -13,16 +13,22 @@ Surfaces are tetrahedralized once (`tetrahedralize --tets 30000`; the paper's pa
 start from the same tet meshes and the same initial maps. Landmark indices of a surface are
 written as x y z lines, which volume-map snaps to the nearest boundary vertex.
 
-Per pair and solver (default: newton and lbfgs, --solvers; lbfgs runs as the solver was
-before issue 19, with the boundary-fixed stage from landmarks too), per direction: n_inv of the
+Per pair and solver (default: newton and lbfgs, --solvers; lbfgs runs today's code as the
+solver was before issue 19, with the boundary-fixed stage from landmarks too; "before" runs the
+tool built from the commit the issue measured, ac3f50b, given by --before-build: its
+defaults, nothing else, so the ratio targets compare against the issue's own baseline), per
+direction: n_inv of the
 positions X, d^max and d^avg (x1e-2), mean |det J^|, E_R and E_ARAP (x1e-3), n_inv of the map
 files, and the run's time (the optimization alone and the command), peak memory, the stages'
-stop reasons. Then the issue's targets, newton against lbfgs on each real pair:
+stop reasons. Then the issue's targets, newton against "before" (else lbfgs) on each real pair:
 d^max, d^avg <= 1/2, E_R <= 1/5, n_inv <= 5, map files' n_inv = X's, every stage stopped by
 its convergence test; and time: <= 60 s for gen-30k, <= 300 s for gen-100k, <= 4 GB.
 
 Usage: bench/volume_map_real.sh [--pairs a,b,...] [--solvers newton,lbfgs] [--build DIR]
-                                [--work DIR] [--extra "ARGS"]
+                                [--work DIR] [--extra "ARGS"] [--before-build DIR]
+  e.g. git worktree add /tmp/before ac3f50b && cmake -S /tmp/before -B /tmp/before/build
+       -DCMAKE_BUILD_TYPE=Release && cmake --build /tmp/before/build --target shapemap, then
+       --solvers newton,before --before-build /tmp/before/build
 Writes WORK/volume_real.md (default bench/out/volume_real) and WORK/results.json.
 Exit status 1 when a run failed or a target is missed, 0 otherwise.
 """
@@ -182,6 +188,8 @@ def main():
     ap.add_argument("--build", default=os.environ.get("BUILD", os.path.join(ROOT, "build")))
     ap.add_argument("--work", default=os.path.join(ROOT, "bench", "out", "volume_real"))
     ap.add_argument("--extra", default="", help="more volume-map arguments, for every run")
+    ap.add_argument("--before-build", default="",
+                    help="build folder of the tool at the issue's commit (solver 'before')")
     args = ap.parse_args()
     data = os.environ.get("SHAPEMAP_DATA", os.path.join(ROOT, "..", "shared", "data"))
     cache = os.path.join(args.work, "cache")
@@ -189,6 +197,9 @@ def main():
     r = Runner(args.build, args.work, os.path.join(args.work, "log.txt"))
     if not os.access(r.bin, os.X_OK):
         sys.exit("bench: %s not found (make build first)" % r.bin)
+    before = Runner(args.before_build, args.work, os.path.join(args.work, "log.txt")) if args.before_build else None
+    if "before" in args.solvers.split(",") and not (before and os.access(before.bin, os.X_OK)):
+        sys.exit("bench: solver 'before' needs --before-build DIR with DIR/shapemap")
     results, failed = [], 0
     for name in args.pairs.split(","):
         spec = PAIRS[name]
@@ -208,8 +219,12 @@ def main():
             # "lbfgs" is the solver as it was before issue 19: L-BFGS X-steps, stage 2 always, no landing.
             today = ["--boundary-fixed-stage", "on", "--no-land-on-target", "--boundary-fixed-iteration-factor", "1"] \
                 if solver == "lbfgs" else []
-            code, wall, peak = r.run(["volume-map", A, B, "-o", out, "--solver", solver, "--quiet"] + today + init +
-                                     shlex.split(args.extra))
+            if solver == "before":  # the issue's own baseline: that tool's defaults
+                code, wall, peak = before.run(["volume-map", A, B, "-o", out, "--quiet"] + init +
+                                              shlex.split(args.extra))
+            else:
+                code, wall, peak = r.run(["volume-map", A, B, "-o", out, "--solver", solver, "--quiet"] + today +
+                                         init + shlex.split(args.extra))
             row = {"pair": name, "solver": solver, "exit_code": code, "seconds": wall, "peak_mb": peak}
             if code == 0:
                 rep = json.load(open(os.path.join(out, "report.json")))
@@ -263,7 +278,8 @@ def report(results, path):
     for (pair, solver), row in sorted(by.items()):
         if solver != "newton":
             continue
-        base = by.get((pair, "lbfgs"))
+        base_name = "before" if (pair, "before") in by else "lbfgs"
+        base = by.get((pair, base_name))
         for d in ("AB", "BA"):
             m, f = row["metrics"][d], row["map_files"][d]
             checks.append(("%s %s n_inv <= 5" % (pair, d), m["n_inv"] <= 5, str(m["n_inv"])))
@@ -273,7 +289,7 @@ def report(results, path):
                 b = base["metrics"][d]
                 for key, ratio in (("d_max_hat", 0.5), ("d_avg_hat", 0.5), ("E_R", 0.2)):
                     ok = m[key] <= ratio * b[key]
-                    checks.append(("%s %s %s <= %g x lbfgs" % (pair, d, key, ratio), ok,
+                    checks.append(("%s %s %s <= %g x %s" % (pair, d, key, ratio, base_name), ok,
                                    "%.3g vs %.3g" % (m[key], b[key])))
         opt_stages = [s for s in row["stages"] if s[0] in ("boundary-fixed", "full")]
         conv = all(s[1] in ("gradient", "decrease") for s in opt_stages)
