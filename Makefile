@@ -3,7 +3,7 @@ BUILD ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?=
 
-.PHONY: build deps test demo bench check-sanitizers clean tool
+.PHONY: build deps test demo bench check-sanitizers clean tool install
 
 deps:
 	@bash scripts/install-deps
@@ -29,6 +29,12 @@ test: build
 # The demo runs only the tool, so it builds only the tool.
 demo: tool
 	$(BUILD)/shapemap demo -o demo-output
+
+# The tool, the static libraries, the headers, the CMake package and the Python package
+# under the prefix chosen when the build folder was configured (default /usr/local:
+# `cmake -S . -B build -DCMAKE_INSTALL_PREFIX=/usr` for /usr); tested by tests/install/run.sh.
+install: build
+	cmake --install $(BUILD)
 
 bench: build
 	bash bench/run
