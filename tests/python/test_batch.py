@@ -169,3 +169,24 @@ def test_schedule_many_shapes():
         out += drained
     assert not s and len(out) == len(jobs) == len({j["pair"] for j in out})
     assert time.perf_counter() - t0 < 10
+
+
+@pytest.mark.parametrize("method,count", [("register", 3), ("volume", 2)])
+def test_volume_methods_prepare_each_shape_once(cli, shapes, tmp_path, method, count):
+    # The volume-side methods: each surface tetrahedralized (and, for register, its ball map
+    # computed) once per shape and shared by its pairs; both directions written per pair.
+    out = tmp_path / method
+    some = [shapes / f"s{k}.obj" for k in range(count)]
+    r = batch(cli, *some, "-o", out, "--method", method, "--workers", 2, "--tets", 1500)
+    assert r.returncode == 0, r.stderr
+    got = rows(out)
+    assert len(got) == count * (count - 1) // 2
+    for p, v in got.items():
+        assert v["status"] == "ok", v
+        assert float(v["d_avg_hat"]) < 0.05 and 0 < float(v["det_J_mean"]) <= 1.0 + 1e-9, v
+        for f in ("map_AB.txt", "map_BA.txt", "report.json", "A_on_B.vtk"):
+            assert (out / p / f).exists(), (p, f)
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["preparations"] == count and summary["preparations_reused"] == 0
+    r = batch(cli, *some, "-o", out, "--method", method, "--workers", 2, "--tets", 1500)
+    assert r.returncode == 0 and all(v["status"] == "skipped" for v in rows(out).values())
