@@ -76,17 +76,8 @@ TetMesh tetrahedralize_input(const TriMesh& surface, const TetrahedralizeOptions
     const std::string msg = e.what(), prefix = "surface: ";
     throw InputError(path + ": " + (msg.compare(0, prefix.size(), prefix) == 0 ? msg.substr(prefix.size()) : msg));
   }
-  if (ti.self_intersecting_pairs > 0 && !quiet)
-    std::cerr << path << ": note: the surface crosses itself (" << ti.self_intersecting_pairs
-              << (ti.self_intersections_removed
-                      ? " pairs of faces); meshing ran away, so the crossings were removed (CGAL) and it was meshed again\n"
-                      : " pairs of faces); meshed the region inside it by ray parity, without crease protection\n");
-  if (!ti.creases_dropped.empty() && !quiet)
-    std::cerr << path << ": note: sharp creases not protected (CGAL's crease protection failed: "
-              << ti.creases_dropped << "); meshed without them\n";
-  if (!ti.odt_dropped.empty() && !quiet)
-    std::cerr << path << ": note: the ODT-smoothed mesh was not valid (" << ti.odt_dropped
-              << "); meshed without ODT smoothing\n";
+  if (!quiet)
+    for (const std::string& n : tetrahedralize_notes(ti, path)) std::cerr << n << "\n";
   return m;
 }
 

@@ -166,6 +166,20 @@ double tet_edge_length(const TetrahedralizeOptions& opt, double vol, double diag
   return L;
 }
 
+// Vertices of `m` at the position of another vertex: where the surface touches itself
+// (repair_surface() splits a non-manifold edge or vertex into copies at one position).
+int touching_vertices(const TriMesh& m) {
+  std::vector<int> order(m.V.rows());
+  for (int i = 0; i < int(order.size()); ++i) order[i] = i;
+  auto key = [&](int i) { return std::array<double, 3>{m.V(i, 0), m.V(i, 1), m.V(i, 2)}; };
+  std::sort(order.begin(), order.end(), [&](int a, int b) { return key(a) < key(b); });
+  int n = 0;
+  for (size_t k = 0; k < order.size(); ++k)
+    if ((k > 0 && key(order[k]) == key(order[k - 1])) || (k + 1 < order.size() && key(order[k]) == key(order[k + 1])))
+      ++n;
+  return n;
+}
+
 // The cells of the complex on compacted vertices, positively oriented.
 TetMesh extract_tets(const C3t3& c3t3, const std::string& name) {
   std::unordered_map<Vertex_handle, int> index;
@@ -263,9 +277,16 @@ TetMesh mesh_once(const TriMesh& surface_in, const TetrahedralizeOptions& opt,
   CGAL::Random rng(opt.seed);
   SurfaceMesh sm_plain;  // the fallback's surface (outlives its domain)
   auto domain = std::make_unique<Domain>(sm, &rng);
-  if (opt.faithful_boundary) domain->detect_features(60);  // protect creases sharper than 120 deg dihedral
+  // Where the surface touches itself no surface mesh of the region is manifold, and Mesh_3's
+  // manifold criterion refines there without end (a real camel pose: over 60k vertices, or a
+  // CGAL failure). Such surfaces are meshed without the criterion and without crease
+  // protection, whose meshing uses it.
+  const int touching = touching_vertices(surface);
+  if (info) info->touching_vertices = touching;
+  const bool creases = opt.faithful_boundary && touching == 0;
+  if (creases) domain->detect_features(60);  // protect creases sharper than 120 deg dihedral
   bool meshed = false;
-  if (opt.faithful_boundary && domain->maximal_curve_index() != Domain::Curve_index()) {
+  if (creases && domain->maximal_curve_index() != Domain::Curve_index()) {
     // CGAL's checks are on in this library (CMakeLists.txt): a failure of the crease
     // protection is an exception, and the surface is meshed again without it; so is a
     // protected meshing that hits the vertex cap.
@@ -288,28 +309,52 @@ TetMesh mesh_once(const TriMesh& surface_in, const TetrahedralizeOptions& opt,
       }
     } catch (const CGAL::Failure_exception& e) {
       guard.pointer_to_stop_atomic_boolean = nullptr;
-      if (info) info->creases_dropped = e.expression() + " (" + e.filename() + ")";
+      if (info)
+        info->creases_dropped = (e.expression().empty() ? std::string("a check") : e.expression()) + " in " +
+                                e.filename().substr(e.filename().find_last_of('/') + 1);
     }
-    if (!meshed) {
+  }
+  if (!meshed) {
+    // Plain meshing (no protected creases) on a fresh domain, with or without Mesh_3's
+    // manifold criterion; true when it converged under the vertex cap.
+    auto mesh_plain = [&](bool manifold) {
       mesh_error = CGAL::CGAL_MESH_3_NO_ERROR;
       c3t3 = C3t3();
       CGAL::get_default_random() = CGAL::Random(opt.seed);
       rng = CGAL::Random(opt.seed);
-      // A fresh surface: detect_features() left its patch and crease property maps on sm.
-      sm_plain = to_surface_mesh(surface, name);
+      domain.reset();
+      sm_plain = to_surface_mesh(surface, name);  // detect_features() marked sm
       domain = std::make_unique<Domain>(sm_plain, &rng);
+      int npts = int(std::clamp(area / (L * L) / 8, 20.0, 400.0));
+      insert_initial_points(c3t3, *domain, surface, npts, 1.5 * L);
+      if (manifold)
+        CGAL::refine_mesh_3(c3t3, *domain, criteria, perturb, exude, odt, P::no_lloyd(), P::no_reset_c3t3(),
+                            P::manifold(), guard);
+      else
+        CGAL::refine_mesh_3(c3t3, *domain, criteria, perturb, exude, odt, P::no_lloyd(), P::no_reset_c3t3(),
+                            P::non_manifold(), guard);
+      return mesh_error == CGAL::CGAL_MESH_3_NO_ERROR;
+    };
+    bool ok = false;
+    std::string why = "more than " + std::to_string(max_vertices) + " vertices";
+    if (touching == 0) {
+      try {
+        ok = mesh_plain(true);
+      } catch (const CGAL::Failure_exception& e) {
+        why = "CGAL failed: " + e.expression();
+      }
+      // A surface that touches itself other than at shared vertex positions (two sheets a
+      // hair apart) runs away the same way: meshed again without the criterion.
+      if (!ok && info) info->manifold_dropped = why;
     }
-  }
-  if (!meshed) {
-    int npts = int(std::clamp(area / (L * L) / 8, 20.0, 400.0));
-    insert_initial_points(c3t3, *domain, surface, npts, 1.5 * L);
-    try {
-      CGAL::refine_mesh_3(c3t3, *domain, criteria, perturb, exude, odt, P::no_lloyd(),
-                          P::no_reset_c3t3(), P::manifold(), guard);
-    } catch (const CGAL::Failure_exception& e) {
-      throw Error("tetrahedralize: CGAL Mesh_3 failed (" + e.expression() + ")");
+    if (!ok) {
+      try {
+        ok = mesh_plain(false);
+      } catch (const CGAL::Failure_exception& e) {
+        throw Error("tetrahedralize: CGAL Mesh_3 failed (" + e.expression() + ")");
+      }
     }
-    if (mesh_error != CGAL::CGAL_MESH_3_NO_ERROR)
+    if (!ok)
       throw InputError(name + ": Mesh_3 refinement did not converge (over " + std::to_string(max_vertices) +
                        " vertices); the surface is too noisy or too thin for this tet size");
   }

@@ -64,19 +64,7 @@ VolumeInput volume_input_from_surface(const TriMesh& given, const std::string& n
     const std::string msg = e.what(), prefix = "surface: ";
     throw InputError(name + ": " + (msg.compare(0, prefix.size(), prefix) == 0 ? msg.substr(prefix.size()) : msg));
   }
-  if (ti.self_intersecting_pairs > 0)
-    in.notes.push_back(name + ": note: the surface crosses itself (" + std::to_string(ti.self_intersecting_pairs) +
-                       (ti.self_intersections_removed
-                            ? " pairs of faces); meshing ran away, so the crossings were removed (CGAL) and it was "
-                              "meshed again"
-                            : " pairs of faces); meshed the region inside it by ray parity, without crease "
-                              "protection"));
-  if (!ti.creases_dropped.empty())
-    in.notes.push_back(name + ": note: sharp creases not protected (CGAL's crease protection failed: " +
-                       ti.creases_dropped + "); meshed without them");
-  if (!ti.odt_dropped.empty())
-    in.notes.push_back(name + ": note: the ODT-smoothed mesh was not valid (" + ti.odt_dropped +
-                       "); meshed without ODT smoothing");
+  for (std::string& n : tetrahedralize_notes(ti, name)) in.notes.push_back(std::move(n));
   in.from_surface = true;
   check_volume_input(in);
   return in;

@@ -4,6 +4,7 @@
 #include "shapemap/progress.h"
 #include <functional>
 #include <string>
+#include <vector>
 
 namespace shapemap {
 
@@ -37,7 +38,17 @@ struct TetrahedralizeInfo {
                                    // inside by ray parity was meshed without crease protection
   bool self_intersections_removed = false;  // that meshing ran away, and the crossings were
                                             // removed (CGAL PMP) before meshing again
+  int touching_vertices = 0;       // > 0: vertices at the position of another (the surface
+                                   // touches itself, e.g. where repair_surface() split a
+                                   // non-manifold edge): meshed without Mesh_3's manifold
+                                   // criterion, so the boundary may have non-manifold edges there
+  std::string manifold_dropped;    // non-empty: meshing with the manifold criterion failed (why);
+                                   // the surface was meshed again without it
 };
+
+// One line per thing tetrahedralize() did that its caller should tell the user,
+// "<name>: note: ...", in a fixed order (the CLI and the volume-map pipeline print them).
+std::vector<std::string> tetrahedralize_notes(const TetrahedralizeInfo& info, const std::string& name);
 
 // Pairs of faces of a closed manifold surface that intersect other than along the edges and
 // vertices they share (CGAL Polygon_mesh_processing::self_intersections, exact predicates).
