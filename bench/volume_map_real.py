@@ -6,6 +6,8 @@ Pairs (the real ones read ../shared/data, or $SHAPEMAP_DATA; skipped when it is 
   cat -> lion        tosca-cat-00 -> tosca-lion-00, 20 landmarks     (--init landmarks)
   glasses 41 -> 44   BIM + elastic surface map, computed once         (--init surface-map)
   busts 302 -> 314   BIM + elastic surface map, computed once         (--init surface-map)
+  camel 01 -> 02     gallop poses as scans come (non-manifold edges, crossings; repaired,
+                     tetrahedralized), BIM + elastic surface map      (--init surface-map)
   gen-30k, gen-100k  generated non-isometric creature pairs with ground truth, 12 landmarks
                      at farthest points of A and their true images    (--init landmarks)
 Surfaces are tetrahedralized once (`tetrahedralize --tets 30000`; the paper's pair has 30k /
@@ -179,6 +181,7 @@ PAIRS = {
     "cat-lion": ("real", "tosca-cat-00", "tosca-lion-00", True),
     "glasses": ("real", "shrec07-41", "shrec07-44", False),
     "busts": ("real", "shrec07-302", "shrec07-314", False),
+    "camel": ("real", "camel-gallop-01", "camel-gallop-02", False),
     "gen-30k": ("generated", 30000, 6000),
     "gen-100k": ("generated", 100000, 16000),
 }

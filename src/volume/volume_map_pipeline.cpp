@@ -184,10 +184,13 @@ void surface_init(VolumeInput& inA, VolumeInput& inB, const VolumeMapRequest& re
     if (req.surface_map_mesh_A.num_vertices() > 0) {
       SA = req.surface_map_mesh_A;
       SB = req.surface_map_mesh_B;
-      // Checked copies (closed, genus 0): the maps refer to the faces as given.
-      TriMesh ca = SA, cb = SB;
-      require_genus0_surface(ca, req.surface_map_mesh_names[0]);
-      require_genus0_surface(cb, req.surface_map_mesh_names[1]);
+      // The maps refer to these meshes as given (surface-map writes them in the user's
+      // numbering, also for scans it repaired): they are only evaluated and searched by
+      // closest point here, so a scan with non-manifold edges is used as it is, once its
+      // repaired copy is a closed genus-0 surface (--strict: once it needs no repair).
+      std::vector<std::string> unused;
+      repaired_genus0(SA, req.surface_map_mesh_names[0], req.strict, unused);
+      repaired_genus0(SB, req.surface_map_mesh_names[1], req.strict, unused);
     } else {
       SA = pick_surface(inA, bA, sAB.size(), req.surface_map_names[0]);
       SB = pick_surface(inB, bB, sBA.size(), req.surface_map_names[1]);

@@ -231,3 +231,36 @@ TEST(RepairCli, VolumeMapAutoRepairsTheBoundary) {
   const nlohmann::json r = nlohmann::json::parse(rj);
   EXPECT_EQ(r["inputs"]["repairs"].size(), 2u);  // A's boundary and B's
 }
+
+TEST(RepairCli, VolumeMapFromTheSurfaceMapOfAMessySurface) {
+  // surface-map writes its maps in the user's numbering of a messy surface; volume-map
+  // --init surface-map takes that surface as given (--surface-map-meshes), once its repaired
+  // copy is a closed genus-0 surface. It refused it before (its non-manifold vertex).
+  TempDir t("repair_vm_smap_cli");
+  ASSERT_EQ(shapemap::testing::run_quiet("generate --shape sphere --vertices 500 -o " + t.p("s.obj")), 0);
+  ASSERT_EQ(shapemap::testing::run_quiet("generate --shape ellipsoid --vertices 500 -o " + t.p("B.obj")), 0);
+  write_surface(t.p("A.off"), messy(read_surface(t.p("s.obj"))));
+  const std::string err = t.p("err.txt");
+  ASSERT_EQ(run_with_notes("surface-map " + t.p("A.off") + " " + t.p("B.obj") + " -o " + t.p("sm") +
+                               " --method bim --symmetric",
+                           err),
+            0)
+      << slurp(err);
+  for (const char* s : {"A.off", "B.obj"}) {
+    const std::string vtk = t.p(std::string(s) + ".vtk");
+    ASSERT_EQ(shapemap::testing::run_quiet("tetrahedralize " + t.p(s) + " --tets 1500 -o " + vtk), 0);
+  }
+  const std::string args = "volume-map " + t.p("A.off.vtk") + " " + t.p("B.obj.vtk") + " --init surface-map " +
+                           "--surface-map " + t.p("sm/map_AB.txt") + " " + t.p("sm/map_BA.txt") +
+                           " --surface-map-meshes " + t.p("A.off") + " " + t.p("B.obj") + " -o ";
+  ASSERT_EQ(run_with_notes(args + t.p("v"), err), 0) << slurp(err);
+  const TetMesh A = read_volume(t.p("A.off.vtk"));
+  EXPECT_EQ(read_map(t.p("v/map_AB.txt")).size(), A.num_vertices());
+  std::ifstream rj(t.p("v/report.json"));
+  const nlohmann::json r = nlohmann::json::parse(rj);
+  EXPECT_LE(r["metrics"]["AB"]["n_inv"].get<int>(), 5) << r["metrics"].dump();
+  // --strict: the defects of the surface named, exit 2, no output.
+  EXPECT_EQ(shapemap::testing::run_stderr("--strict " + args + t.p("strict"), err), 2);
+  EXPECT_NE(slurp(err).find(t.p("A.off") + ": "), std::string::npos) << slurp(err);
+  EXPECT_FALSE(fs::exists(t.dir / "strict"));
+}
