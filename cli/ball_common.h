@@ -32,35 +32,40 @@ struct BallInput {
   bool changed() const { return tetrahedralized || chords_split > 0 || pinches_split > 0; }  // write it to OUT
 };
 
+// Parts touching along an edge or at a vertex (given so, or made so by the tetrahedralizer
+// from a surface that touches itself): the boundary is not a manifold, so not a sphere.
+// Splitting those vertices (copies appended: rows 0..n-1 stay the user's) repairs it.
+inline void split_pinches(BallInput& in, const std::string& path, const GlobalOptions& g) {
+  const MeshReport r = check_volume(in.mesh);
+  if (!r.indices_in_range || (r.non_manifold_edges == 0 && r.non_manifold_vertices == 0)) return;
+  auto count = [](int k, const char* one, const char* many) { return std::to_string(k) + (k == 1 ? one : many); };
+  const std::string what = "boundary surface has " +
+                           count(r.non_manifold_edges, " non-manifold edge", " non-manifold edges") + " and " +
+                           count(r.non_manifold_vertices, " non-manifold vertex", " non-manifold vertices") +
+                           " (tets touching along an edge or at a vertex)";
+  if (g.strict) throw InputError(path + ": " + what + " (--strict: not repaired)");
+  in.pinches_split = split_pinched_tet_vertices(in.mesh);
+  if (in.pinches_split > 0) {
+    in.repairs.push_back(path + ": note: " + what + ": " + std::to_string(in.pinches_split) +
+                         " vertices split (copies appended after the given vertices, which keep their numbers)");
+    info(g, in.repairs.back());
+  }
+}
+
 inline BallInput load_ball_input(const std::string& path, int tets, bool split_chords,
                                  const ProgressCallback& progress, const GlobalOptions& g) {
   const bool quiet = g.quiet;
   BallInput in;
   if (is_volume_path(path)) {
     in.mesh = read_volume(path);
-    // Parts touching along an edge or at a vertex: the boundary is not a manifold, so not a
-    // sphere. Splitting those vertices (copies appended: rows 0..n-1 stay the user's) repairs it.
-    const MeshReport r = check_volume(in.mesh);
-    if (r.indices_in_range && (r.non_manifold_edges > 0 || r.non_manifold_vertices > 0)) {
-      auto count = [](int k, const char* one, const char* many) { return std::to_string(k) + (k == 1 ? one : many); };
-      const std::string what = "boundary surface has " +
-                               count(r.non_manifold_edges, " non-manifold edge", " non-manifold edges") + " and " +
-                               count(r.non_manifold_vertices, " non-manifold vertex", " non-manifold vertices") +
-                               " (tets touching along an edge or at a vertex)";
-      if (g.strict) throw InputError(path + ": " + what + " (--strict: not repaired)");
-      in.pinches_split = split_pinched_tet_vertices(in.mesh);
-      if (in.pinches_split > 0) {
-        in.repairs.push_back(path + ": note: " + what + ": " + std::to_string(in.pinches_split) +
-                             " vertices split (copies appended after the given vertices, which keep their numbers)");
-        info(g, in.repairs.back());
-      }
-    }
+    split_pinches(in, path, g);
   } else if (is_surface_path(path)) {
     const TriMesh s = repaired_genus0_surface(read_surface(path), path, g, &in.repairs);
     TetrahedralizeOptions o;
     o.target_tets = tets;
     in.mesh = tetrahedralize_input(s, o, progress, path, quiet);
     in.tetrahedralized = true;
+    split_pinches(in, path, g);
     split_chords = true;
   } else {
     throw InputError(path + ": unknown mesh format (use .vtk .mesh .msh .node .ele, or a closed surface .obj .off .ply .stl)");

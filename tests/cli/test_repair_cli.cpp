@@ -5,6 +5,7 @@
 #include "shapemap/io.h"
 #include "shapemap/maps.h"
 #include "cli/cli_run.h"
+#include "polycube.h"
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <Eigen/Geometry>
@@ -263,4 +264,20 @@ TEST(RepairCli, VolumeMapFromTheSurfaceMapOfAMessySurface) {
   EXPECT_EQ(shapemap::testing::run_stderr("--strict " + args + t.p("strict"), err), 2);
   EXPECT_NE(slurp(err).find(t.p("A.off") + ": "), std::string::npos) << slurp(err);
   EXPECT_FALSE(fs::exists(t.dir / "strict"));
+}
+
+TEST(RepairCli, BallOfASurfaceTouchingItself) {
+  // A surface that touches itself along an edge: its repair splits the non-manifold edge, the
+  // tetrahedralizer meshes it without the manifold criterion, and the tets touching along
+  // that edge are split for the ball map as in a given tet mesh (before: "not a ball").
+  TempDir t("repair_ball_touching_cli");
+  write_surface(t.p("poly.obj"), shapemap::testing::touching_polycube());
+  const std::string err = t.p("err.txt");
+  ASSERT_EQ(run_with_notes("ball " + t.p("poly.obj") + " --tets 3000 -o " + t.p("b"), err), 0) << slurp(err);
+  const std::string notes = slurp(err);
+  EXPECT_NE(notes.find(t.p("poly.obj") + ": note: the surface touches itself"), std::string::npos) << notes;
+  EXPECT_NE(notes.find("vertices split (copies appended"), std::string::npos) << notes;
+  std::ifstream rj(t.p("b/report.json"));
+  const nlohmann::json r = nlohmann::json::parse(rj);
+  EXPECT_EQ(r["metrics"]["folded_tets"].get<int>(), 0) << r["metrics"].dump();
 }
