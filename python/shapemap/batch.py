@@ -703,6 +703,12 @@ def write_html(out, a, results, keys, t):
         f.write(text)
 
 
+def _remove_if_made(out, made):
+    """A batch that could not start leaves no output folder it created (nothing in it is done)."""
+    if made:
+        shutil.rmtree(out, ignore_errors=True)
+
+
 def main(argv=None):
     a = parse_args(sys.argv[1:] if argv is None else argv)
     paths = {}
@@ -718,11 +724,29 @@ def main(argv=None):
         print(f"shapemap: error: {e}", file=sys.stderr)
         return 2
     out = os.path.abspath(a.output)
+    made_out = not os.path.exists(out)
     os.makedirs(os.path.join(out, "shapes"), exist_ok=True)
     t0 = time.perf_counter()
     driver = {"process_start": _process_start(), "start": time.time()}
     progress = Progress(len(pairs), a.quiet)
-    results, infos = run_batch(a, paths, pairs, progress, driver)
+    try:
+        results, infos = run_batch(a, paths, pairs, progress, driver)
+    except ImportError as e:
+        # Unpickling a task on a worker that cannot import this package (a cluster's workers
+        # need shapemap installed, or its build folder on their PYTHONPATH).
+        if a.scheduler and "shapemap" in str(e):
+            print(f"shapemap: error: {a.scheduler}: a Dask worker cannot import the shapemap package ({e}); "
+                  "install it on every worker machine (make install) or start dask-worker with "
+                  "PYTHONPATH=<build>/python", file=sys.stderr)
+            _remove_if_made(out, made_out)
+            return 2
+        raise
+    except OSError as e:
+        if a.scheduler:  # no scheduler there (Dask's connect timeout)
+            print(f"shapemap: error: {a.scheduler}: cannot reach the Dask scheduler ({e})", file=sys.stderr)
+            _remove_if_made(out, made_out)
+            return 2
+        raise
     t = write_summary(out, a, results, infos, time.perf_counter() - t0, driver)
     if not a.quiet:
         print(f"batch: {t['pairs']} pairs, {t['ok']} ok, {t['failed']} failed, {t['skipped']} skipped; "

@@ -190,3 +190,64 @@ def test_volume_methods_prepare_each_shape_once(cli, shapes, tmp_path, method, c
     assert summary["preparations"] == count and summary["preparations_reused"] == 0
     r = batch(cli, *some, "-o", out, "--method", method, "--workers", 2, "--tets", 1500)
     assert r.returncode == 0 and all(v["status"] == "skipped" for v in rows(out).values())
+
+
+def _free_port():
+    import socket
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _wait_for_port(port, seconds=30):
+    import socket
+    import time
+    end = time.time() + seconds
+    while time.time() < end:
+        with socket.socket() as s:
+            if s.connect_ex(("127.0.0.1", port)) == 0:
+                return
+        time.sleep(0.2)
+    raise AssertionError(f"dask-scheduler did not listen on port {port}")
+
+
+@pytest.mark.parametrize("worker_sees_shapemap", [True, False])
+def test_batch_on_a_running_cluster(cli, shapes, tmp_path, worker_sees_shapemap):
+    # --scheduler: a dask-scheduler and a dask-worker started apart from the batch, as on a
+    # cluster. A worker that cannot import shapemap gives one error line (exit 2, no output).
+    import os
+    import shutil
+    sched_bin, worker_bin = shutil.which("dask-scheduler"), shutil.which("dask-worker")
+    assert sched_bin and worker_bin, "python3-distributed's dask-scheduler/dask-worker (scripts/install-deps)"
+    port = _free_port()
+    env = dict(os.environ)
+    env.pop("PYTHONPATH", None)
+    if worker_sees_shapemap:
+        env["PYTHONPATH"] = os.path.join(os.path.dirname(cli.exe), "python")
+    quiet = dict(stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    sched = subprocess.Popen([sched_bin, "--host", "127.0.0.1", "--port", str(port), "--no-dashboard"], **quiet)
+    worker = None
+    try:
+        _wait_for_port(port)
+        worker = subprocess.Popen([worker_bin, f"tcp://127.0.0.1:{port}", "--nworkers", "1", "--nthreads", "1",
+                                   "--no-dashboard"], env=env, **quiet)
+        out = tmp_path / "out"
+        three = [shapes / f"s{k}.obj" for k in range(3)]
+        r = batch(cli, *three, "-o", out, "--method", "bim", "--scheduler", f"tcp://127.0.0.1:{port}")
+        if worker_sees_shapemap:
+            assert r.returncode == 0, r.stderr
+            assert all(v["status"] == "ok" for v in rows(out).values()) and len(rows(out)) == 3
+            assert json.loads((out / "summary.json").read_text())["preparations"] == 3
+        else:
+            assert r.returncode == 2, r.stderr
+            lines = r.stderr.strip().splitlines()
+            assert len(lines) == 1 and "cannot import the shapemap package" in lines[0], r.stderr
+            assert not out.exists()
+    finally:
+        for p in (worker, sched):
+            if p:
+                p.terminate()
+                try:
+                    p.wait(timeout=20)
+                except subprocess.TimeoutExpired:
+                    p.kill()
