@@ -211,11 +211,110 @@ TetMesh extract_tets(const C3t3& c3t3, const std::string& name) {
   return out;
 }
 
+namespace P = CGAL::parameters;
+// The optimization steps' parameter types (one type whether a step is on or off).
+using Perturb = decltype(P::no_perturb());
+using Exude = decltype(P::no_exude());
+using Odt = decltype(P::no_odt());
+
+// What the Mesh_3 calls of one tetrahedralization share: the surface, the criteria, the
+// optimization steps and the runaway guard, which reports into `error`.
+struct MeshRun {
+  const TriMesh& surface;
+  unsigned seed = 0;
+  double L = 0, area = 0;
+  std::size_t max_vertices = 0;
+  Criteria criteria;
+  Perturb perturb;
+  Exude exude;
+  Odt odt;
+  CGAL::Mesh_error_code error = CGAL::CGAL_MESH_3_NO_ERROR;
+  P::internal::Mesh_3_options guard;
+};
+
+// The crease-protected meshing (creases sharper than 120 deg dihedral as 1D features);
+// false, with the reason in info, when CGAL's protection fails or the meshing hits the
+// vertex cap or the wall-clock budget: the plain meshing takes over.
+bool mesh_with_creases(MeshRun& r, Domain& domain, C3t3& c3t3, double time_limit, TetrahedralizeInfo* info) {
+  // CGAL's checks are on in this library (CMakeLists.txt): a failure of the crease
+  // protection is an exception.
+  try {
+    // Some noisy surfaces make the protected refinement crawl without adding vertices
+    // (measured: a perturbed icosphere, > 300 s): a wall-clock budget, after which the
+    // plain meshing takes over. Only such inputs depend on the machine's speed.
+    Watchdog watchdog(time_limit > 0 ? time_limit : 1e9);
+    r.guard.pointer_to_stop_atomic_boolean = &watchdog.stop;
+    c3t3 = CGAL::make_mesh_3<C3t3>(domain, r.criteria, P::features(domain), r.perturb, r.exude, r.odt,
+                                   P::no_lloyd(), P::manifold(), r.guard);
+    r.guard.pointer_to_stop_atomic_boolean = nullptr;
+    if (r.error == CGAL::CGAL_MESH_3_NO_ERROR) {
+      if (info) info->creases_protected = true;
+      return true;
+    }
+    if (info)
+      info->creases_dropped = r.error == CGAL::CGAL_MESH_3_STOPPED
+                                  ? "took over " + std::to_string(int(time_limit)) + " s"
+                                  : "more than " + std::to_string(r.max_vertices) + " vertices";
+  } catch (const CGAL::Failure_exception& e) {
+    r.guard.pointer_to_stop_atomic_boolean = nullptr;
+    if (info)
+      info->creases_dropped = (e.expression().empty() ? std::string("a check") : e.expression()) + " in " +
+                              e.filename().substr(e.filename().find_last_of('/') + 1);
+  }
+  return false;
+}
+
+// Plain meshing (no protected creases) on a fresh domain and a fresh random state, with or
+// without Mesh_3's manifold criterion; true when it converged under the vertex cap.
+bool mesh_plain(MeshRun& r, bool manifold, C3t3& c3t3) {
+  r.error = CGAL::CGAL_MESH_3_NO_ERROR;
+  c3t3 = C3t3();
+  CGAL::get_default_random() = CGAL::Random(r.seed);
+  CGAL::Random rng(r.seed);
+  const SurfaceMesh sm = to_surface_mesh(r.surface, "surface");  // outlives its domain
+  Domain domain(sm, &rng);
+  const int npts = int(std::clamp(r.area / (r.L * r.L) / 8, 20.0, 400.0));
+  insert_initial_points(c3t3, domain, r.surface, npts, 1.5 * r.L);
+  if (manifold)
+    CGAL::refine_mesh_3(c3t3, domain, r.criteria, r.perturb, r.exude, r.odt, P::no_lloyd(), P::no_reset_c3t3(),
+                        P::manifold(), r.guard);
+  else
+    CGAL::refine_mesh_3(c3t3, domain, r.criteria, r.perturb, r.exude, r.odt, P::no_lloyd(), P::no_reset_c3t3(),
+                        P::non_manifold(), r.guard);
+  return r.error == CGAL::CGAL_MESH_3_NO_ERROR;
+}
+
+// The plain meshing with Mesh_3's manifold criterion unless the surface touches itself, and
+// without it when that runs away (over the vertex cap, or a CGAL check): a surface that
+// touches itself other than at shared vertex positions (two sheets a hair apart) runs away
+// the same way. Throws when the meshing without the criterion does not converge either.
+void mesh_plain_with_fallback(MeshRun& r, int touching, C3t3& c3t3, const std::string& name,
+                              TetrahedralizeInfo* info) {
+  bool ok = false;
+  if (touching == 0) {
+    std::string why = "more than " + std::to_string(r.max_vertices) + " vertices";
+    try {
+      ok = mesh_plain(r, true, c3t3);
+    } catch (const CGAL::Failure_exception& e) {
+      why = "CGAL failed: " + e.expression();
+    }
+    if (!ok && info) info->manifold_dropped = why;
+  }
+  if (!ok) {
+    try {
+      ok = mesh_plain(r, false, c3t3);
+    } catch (const CGAL::Failure_exception& e) {
+      throw Error("tetrahedralize: CGAL Mesh_3 failed (" + e.expression() + ")");
+    }
+  }
+  if (!ok)
+    throw InputError(name + ": Mesh_3 refinement did not converge (over " + std::to_string(r.max_vertices) +
+                     " vertices); the surface is too noisy or too thin for this tet size");
+}
+
 // One Mesh_3 run on a closed surface: the criteria from the edge length, the optimization
 // steps, the runaway guard, then the crease-protected meshing with the plain meshing as its
-// fallback. Longer than 100 lines on purpose: the criteria, the guard and the optimization
-// parameter objects (each of its own CGAL type) feed both meshing calls, and the domain is
-// rebuilt between them; split, they would travel as templates over those types.
+// fallback.
 TetMesh mesh_once(const TriMesh& surface_in, const TetrahedralizeOptions& opt,
                   const ProgressCallback& progress, TetrahedralizeInfo* info) {
   if (info) *info = TetrahedralizeInfo{};
@@ -230,7 +329,6 @@ TetMesh mesh_once(const TriMesh& surface_in, const TetrahedralizeOptions& opt,
   }
   const double diag = bbox_diagonal(surface.V);
   if (!(vol > 1e-12 * diag * diag * diag)) throw InputError(name + ": encloses no volume");
-  const double area = surface_area(surface.V, surface.F);
 
   double expected_tets = 0;
   const double L = tet_edge_length(opt, vol, diag, expected_tets);
@@ -240,124 +338,54 @@ TetMesh mesh_once(const TriMesh& surface_in, const TetrahedralizeOptions& opt,
   // library never prints (failures become exceptions below), so they are dropped.
   const CerrSilencer silence;
   CGAL::get_default_random() = CGAL::Random(opt.seed);
-  SurfaceMesh sm = to_surface_mesh(surface, name);
 
   // Criteria (CGAL Mesh_3 user manual, section 2.3): circumradius bounds derived from L:
   // a regular tet of edge L has circumradius 0.61 L, an equilateral triangle 0.58 L.
-  namespace P = CGAL::parameters;
   // facet_distance tied to L: a much finer surface than volume makes sliver
   // perturbation slow (measured on spot.obj); capped at 1% of the bounding box.
   const double facet_distance = std::min(0.1 * L, 0.01 * diag);
-  Criteria criteria(P::edge_size = L, P::facet_angle = 25, P::facet_size = 0.58 * L,
-                    P::facet_distance = facet_distance,
-                    P::cell_radius_edge_ratio = opt.radius_edge_ratio, P::cell_size = 0.61 * L);
-
-  C3t3 c3t3;
   // An explicit time limit (0 = none): CGAL's default limit is the refinement time,
   // which would make the result depend on the machine load.
   const double tl = std::max(0.0, opt.optimize_time_limit);
-  const auto perturb = opt.optimize ? P::perturb(P::time_limit = tl, P::sliver_bound = opt.sliver_bound)
-                                    : P::no_perturb();
-  const auto exude = opt.optimize ? P::exude(P::time_limit = tl, P::sliver_bound = opt.sliver_bound)
-                                  : P::no_exude();
-  // ODT smoothing (Tournois, Wormser, Alliez, Desbrun 2009) before the sliver steps: on
-  // spot.obj and creatures it lowers the ball map's mean D_V by 15-19% at the same vertex
-  // count (docs/methods.md, "Tetrahedralization"); 10 iterations, CGAL's convergence test.
-  const auto odt = opt.optimize && opt.odt ? P::odt(P::time_limit = tl, P::max_iteration_number = 10)
-                                           : P::no_odt();
+  MeshRun run{surface,
+              opt.seed,
+              L,
+              surface_area(surface.V, surface.F),
+              // Runaway guard (deterministic): on noisy surfaces Mesh_3 can refine around tiny
+              // crease features without end (measured: a randomly perturbed icosphere ran >
+              // 200 s). A cap of twice the expected tet count in vertices (~10x the expected
+              // vertex count).
+              std::size_t(std::max(20000.0, 2 * expected_tets)),
+              Criteria(P::edge_size = L, P::facet_angle = 25, P::facet_size = 0.58 * L,
+                       P::facet_distance = facet_distance, P::cell_radius_edge_ratio = opt.radius_edge_ratio,
+                       P::cell_size = 0.61 * L),
+              opt.optimize ? P::perturb(P::time_limit = tl, P::sliver_bound = opt.sliver_bound) : P::no_perturb(),
+              opt.optimize ? P::exude(P::time_limit = tl, P::sliver_bound = opt.sliver_bound) : P::no_exude(),
+              // ODT smoothing (Tournois, Wormser, Alliez, Desbrun 2009) before the sliver steps: on
+              // spot.obj and creatures it lowers the ball map's mean D_V by 15-19% at the same
+              // vertex count (docs/methods.md, "Tetrahedralization"); 10 iterations, CGAL's test.
+              opt.optimize && opt.odt ? P::odt(P::time_limit = tl, P::max_iteration_number = 10) : P::no_odt()};
+  run.guard.maximal_number_of_vertices = run.max_vertices;
+  run.guard.pointer_to_error_code = &run.error;
   report(progress, "tetrahedralize/refine", 0);
-  // Runaway guard (deterministic): on noisy surfaces Mesh_3 can refine around tiny crease
-  // features without end (measured: a randomly perturbed icosphere ran > 200 s). A cap of
-  // twice the expected tet count in vertices (~10x the expected vertex count).
-  const std::size_t max_vertices = std::size_t(std::max(20000.0, 2 * expected_tets));
-  CGAL::Mesh_error_code mesh_error = CGAL::CGAL_MESH_3_NO_ERROR;
-  CGAL::parameters::internal::Mesh_3_options guard;
-  guard.maximal_number_of_vertices = max_vertices;
-  guard.pointer_to_error_code = &mesh_error;
-  CGAL::Random rng(opt.seed);
-  SurfaceMesh sm_plain;  // the fallback's surface (outlives its domain)
-  auto domain = std::make_unique<Domain>(sm, &rng);
+
   // Where the surface touches itself no surface mesh of the region is manifold, and Mesh_3's
   // manifold criterion refines there without end (a real camel pose: over 60k vertices, or a
   // CGAL failure). Such surfaces are meshed without the criterion and without crease
   // protection, whose meshing uses it.
   const int touching = touching_vertices(surface);
   if (info) info->touching_vertices = touching;
-  const bool creases = opt.faithful_boundary && touching == 0;
-  if (creases) domain->detect_features(60);  // protect creases sharper than 120 deg dihedral
+  C3t3 c3t3;
   bool meshed = false;
-  if (creases && domain->maximal_curve_index() != Domain::Curve_index()) {
-    // CGAL's checks are on in this library (CMakeLists.txt): a failure of the crease
-    // protection is an exception, and the surface is meshed again without it; so is a
-    // protected meshing that hits the vertex cap.
-    try {
-      // Some noisy surfaces make the protected refinement crawl without adding vertices
-      // (measured: a perturbed icosphere, > 300 s): a wall-clock budget, after which the
-      // plain meshing takes over. Only such inputs depend on the machine's speed.
-      Watchdog watchdog(opt.crease_time_limit > 0 ? opt.crease_time_limit : 1e9);
-      guard.pointer_to_stop_atomic_boolean = &watchdog.stop;
-      c3t3 = CGAL::make_mesh_3<C3t3>(*domain, criteria, P::features(*domain), perturb, exude, odt,
-                                     P::no_lloyd(), P::manifold(), guard);
-      guard.pointer_to_stop_atomic_boolean = nullptr;
-      if (mesh_error == CGAL::CGAL_MESH_3_NO_ERROR) {
-        meshed = true;
-        if (info) info->creases_protected = true;
-      } else if (info) {
-        info->creases_dropped = mesh_error == CGAL::CGAL_MESH_3_STOPPED
-                                    ? "took over " + std::to_string(int(opt.crease_time_limit)) + " s"
-                                    : "more than " + std::to_string(max_vertices) + " vertices";
-      }
-    } catch (const CGAL::Failure_exception& e) {
-      guard.pointer_to_stop_atomic_boolean = nullptr;
-      if (info)
-        info->creases_dropped = (e.expression().empty() ? std::string("a check") : e.expression()) + " in " +
-                                e.filename().substr(e.filename().find_last_of('/') + 1);
-    }
+  if (opt.faithful_boundary && touching == 0) {
+    CGAL::Random rng(opt.seed);
+    const SurfaceMesh sm = to_surface_mesh(surface, name);
+    Domain domain(sm, &rng);
+    domain.detect_features(60);  // protect creases sharper than 120 deg dihedral
+    if (domain.maximal_curve_index() != Domain::Curve_index())
+      meshed = mesh_with_creases(run, domain, c3t3, opt.crease_time_limit, info);
   }
-  if (!meshed) {
-    // Plain meshing (no protected creases) on a fresh domain, with or without Mesh_3's
-    // manifold criterion; true when it converged under the vertex cap.
-    auto mesh_plain = [&](bool manifold) {
-      mesh_error = CGAL::CGAL_MESH_3_NO_ERROR;
-      c3t3 = C3t3();
-      CGAL::get_default_random() = CGAL::Random(opt.seed);
-      rng = CGAL::Random(opt.seed);
-      domain.reset();
-      sm_plain = to_surface_mesh(surface, name);  // detect_features() marked sm
-      domain = std::make_unique<Domain>(sm_plain, &rng);
-      int npts = int(std::clamp(area / (L * L) / 8, 20.0, 400.0));
-      insert_initial_points(c3t3, *domain, surface, npts, 1.5 * L);
-      if (manifold)
-        CGAL::refine_mesh_3(c3t3, *domain, criteria, perturb, exude, odt, P::no_lloyd(), P::no_reset_c3t3(),
-                            P::manifold(), guard);
-      else
-        CGAL::refine_mesh_3(c3t3, *domain, criteria, perturb, exude, odt, P::no_lloyd(), P::no_reset_c3t3(),
-                            P::non_manifold(), guard);
-      return mesh_error == CGAL::CGAL_MESH_3_NO_ERROR;
-    };
-    bool ok = false;
-    std::string why = "more than " + std::to_string(max_vertices) + " vertices";
-    if (touching == 0) {
-      try {
-        ok = mesh_plain(true);
-      } catch (const CGAL::Failure_exception& e) {
-        why = "CGAL failed: " + e.expression();
-      }
-      // A surface that touches itself other than at shared vertex positions (two sheets a
-      // hair apart) runs away the same way: meshed again without the criterion.
-      if (!ok && info) info->manifold_dropped = why;
-    }
-    if (!ok) {
-      try {
-        ok = mesh_plain(false);
-      } catch (const CGAL::Failure_exception& e) {
-        throw Error("tetrahedralize: CGAL Mesh_3 failed (" + e.expression() + ")");
-      }
-    }
-    if (!ok)
-      throw InputError(name + ": Mesh_3 refinement did not converge (over " + std::to_string(max_vertices) +
-                       " vertices); the surface is too noisy or too thin for this tet size");
-  }
+  if (!meshed) mesh_plain_with_fallback(run, touching, c3t3, name, info);
   report(progress, "tetrahedralize/refine", 1);
 
   TetMesh out = extract_tets(c3t3, name);
