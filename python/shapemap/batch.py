@@ -349,11 +349,18 @@ def _worker_processes(a):
     return a.worker_processes or a.method in ("volume", "register")
 
 
+class SchedulerUnreachable(Exception):
+    """--scheduler names no Dask scheduler that answers."""
+
+
 def start_client(a):
     from dask.distributed import Client, LocalCluster
     import logging
     if a.scheduler:
-        return Client(a.scheduler), None
+        try:
+            return Client(a.scheduler), None
+        except OSError as e:  # Dask's connect timeout
+            raise SchedulerUnreachable(str(e)) from e
     os.environ.setdefault("OMP_WAIT_POLICY", "passive")  # inherited by the worker processes
     os.environ["OMP_NUM_THREADS"] = str(a.threads_per_worker)  # also for calls without threads=
     # Worker threads in this process start in ~0.1 s instead of ~1-3 s for processes, and
@@ -741,12 +748,10 @@ def main(argv=None):
             _remove_if_made(out, made_out)
             return 2
         raise
-    except OSError as e:
-        if a.scheduler:  # no scheduler there (Dask's connect timeout)
-            print(f"shapemap: error: {a.scheduler}: cannot reach the Dask scheduler ({e})", file=sys.stderr)
-            _remove_if_made(out, made_out)
-            return 2
-        raise
+    except SchedulerUnreachable as e:
+        print(f"shapemap: error: {a.scheduler}: cannot reach the Dask scheduler ({e})", file=sys.stderr)
+        _remove_if_made(out, made_out)
+        return 2
     t = write_summary(out, a, results, infos, time.perf_counter() - t0, driver)
     if not a.quiet:
         print(f"batch: {t['pairs']} pairs, {t['ok']} ok, {t['failed']} failed, {t['skipped']} skipped; "
