@@ -5,7 +5,8 @@
 // flipped + collapsed triangles after each stage (on the repaired surfaces, as report.json,
 // and on the inputs, as bench/surface_real.sh) and the round trip: the mean over A's vertices
 // of |Q(P(x)) - x| over A's bounding-box diagonal, on the inputs, as bench/surface_real.sh.
-// Usage: tool_untangle_bench A B map_AB map_BA [--no-wide] [-o DIR]
+// Usage: tool_untangle_bench A B map_AB map_BA [--no-wide] [--sliver-mips M] [-o DIR]
+// (--sliver-mips: stage 4's threshold, 0 skips stage 4)
 // (-o: writes the resulting map_AB.txt and map_BA.txt there, inputs' numbering).
 #include "shapemap/eval/surface_distortion.h"
 #include "shapemap/io.h"
@@ -14,6 +15,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <string>
 
@@ -24,6 +26,9 @@ int bad(const TriMesh& S, const TriMesh& T, const BarycentricMap& P) {
   const SurfaceDistortion d = surface_distortion(S, T, P);
   return d.flipped + d.degenerate;
 }
+double conformal(const TriMesh& S, const TriMesh& T, const BarycentricMap& P) {
+  return surface_distortion(S, T, P).conformal_mean;
+}
 double round_trip(const TriMesh& A, const TriMesh& B, const BarycentricMap& P, const BarycentricMap& Q) {
   const Eigen::MatrixXd PQX = map_positions(P, map_positions(Q, A.V, A.F), B.F);
   const double diag = (A.V.colwise().maxCoeff() - A.V.colwise().minCoeff()).norm();
@@ -33,7 +38,7 @@ double round_trip(const TriMesh& A, const TriMesh& B, const BarycentricMap& P, c
 
 int main(int argc, char** argv) {
   if (argc < 5) {
-    std::fprintf(stderr, "usage: tool_untangle_bench A B map_AB map_BA [--no-wide] [-o DIR]\n");
+    std::fprintf(stderr, "usage: tool_untangle_bench A B map_AB map_BA [--no-wide] [--sliver-mips M] [-o DIR]\n");
     return 2;
   }
   SurfaceRefinementOptions opt;
@@ -41,7 +46,10 @@ int main(int argc, char** argv) {
   for (int i = 5; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--no-wide")) opt.wide_untangle = false;
     else if (!std::strcmp(argv[i], "-o") && i + 1 < argc) out = argv[++i];
+    else if (!std::strcmp(argv[i], "--sliver-mips") && i + 1 < argc)
+      opt.sliver_untangling.sliver_mips = std::atof(argv[++i]);  // 0: no stage 4
   }
+  if (!(opt.sliver_untangling.sliver_mips > 0)) opt.sliver_untangle = false;
   const TriMesh A = read_surface(argv[1]), B = read_surface(argv[2]);
   const SurfaceRepair rA = repair_surface(A, "A"), rB = repair_surface(B, "B");
   BarycentricMap P = map_to_repaired(read_map(argv[3]), rA, rB, B);
@@ -49,21 +57,28 @@ int main(int argc, char** argv) {
   const TriMesh &RA = rA.mesh, &RB = rB.mesh;
   auto line = [&](const char* what) {
     const BarycentricMap iP = map_to_inputs(P, rA, rB, B), iQ = map_to_inputs(Q, rB, rA, A);
-    std::printf("%-12s repaired AB %4d BA %4d | inputs AB %4d BA %4d | round trip AB %.4f%% BA %.4f%%\n", what,
-                bad(RA, RB, P), bad(RB, RA, Q), bad(A, B, iP), bad(B, A, iQ), 100 * round_trip(A, B, iP, iQ),
-                100 * round_trip(B, A, iQ, iP));
+    std::printf("%-12s repaired AB %4d BA %4d | inputs AB %4d BA %4d | round trip AB %.4f%% BA %.4f%% | "
+                "conformal AB %.4g BA %.4g\n", what, bad(RA, RB, P), bad(RB, RA, Q), bad(A, B, iP), bad(B, A, iQ),
+                100 * round_trip(A, B, iP, iQ), 100 * round_trip(B, A, iQ, iP), conformal(A, B, iP),
+                conformal(B, A, iQ));
   };
   line("refined");
   const auto t0 = std::chrono::steady_clock::now();
   const SurfaceUntangling u = untangle_surface_maps(RA, RB, P, Q, opt);
   const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   line("untangled");
-  std::printf("stage 2: AB %d -> %d, BA %d -> %d\n", u.AB.before.bad(), u.AB.after.bad(), u.BA.before.bad(),
-              u.BA.after.bad());
+  std::printf("stage 2: AB %d -> %d, BA %d -> %d; slivers AB %d -> %d, BA %d -> %d\n", u.AB.before.bad(),
+              u.AB.after.bad(), u.BA.before.bad(), u.BA.after.bad(), u.AB.slivers_before, u.AB.slivers_after,
+              u.BA.slivers_before, u.BA.slivers_after);
   if (u.wide)
     std::printf("stage 3: AB %d -> %d (%d of %d regions kept), BA %d -> %d (%d of %d)\n", u.wide_AB.before.bad(),
                 u.wide_AB.after.bad(), u.wide_AB.regions_kept, u.wide_AB.regions, u.wide_BA.before.bad(),
                 u.wide_BA.after.bad(), u.wide_BA.regions_kept, u.wide_BA.regions);
+  if (u.slivers)
+    std::printf("stage 4: slivers AB %d -> %d (folds %d -> %d), BA %d -> %d (folds %d -> %d)\n",
+                u.sliver_AB.slivers_before, u.sliver_AB.slivers_after, u.sliver_AB.before.bad(),
+                u.sliver_AB.after.bad(), u.sliver_BA.slivers_before, u.sliver_BA.slivers_after,
+                u.sliver_BA.before.bad(), u.sliver_BA.after.bad());
   std::printf("seconds %.1f\n", sec);
   if (!out.empty()) {
     write_map(out + "/map_AB.txt", map_to_inputs(P, rA, rB, B));

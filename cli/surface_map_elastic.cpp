@@ -54,6 +54,10 @@ void add_elastic_options(CLI::App* app, ElasticSettings& o, std::string& truth_a
                 "elastic: skip the untangling's second pass (default: what the first pass leaves, "
                 "mostly patches mapped mirrored, is untangled again over regions of 4 and 8 rings "
                 "with 200 sweeps, kept only where the fold count falls; docs/methods.md)");
+  app->add_flag("--elastic-no-sliver-untangle", [&o](std::int64_t) { o.sliver_untangle = false; },
+                "elastic: leave slivers (default: a last pass relaxes the regions around mapped "
+                "triangles squashed nearly flat, MIPS - 2 > 10, and keeps a region's change only "
+                "where the sliver count falls and the fold count does not rise; docs/methods.md)");
   app->add_option("--elastic-inner-iterations", o.inner_iterations,
                   "elastic: at most this many L-BFGS iterations per Y step (Sec. 5.1: 50)")
       ->check(non_negative());

@@ -15,15 +15,26 @@ SurfaceUntangling untangle_surface_maps(const TriMesh& A, const TriMesh& B, Bary
     u.BA = untangle_surface_map(B, A, Q, opt.untangling, &P);
     u.final_BA = u.BA.after;
   }
-  if (!opt.wide_untangle) return u;
-  // Stage 3: what the local regions left (a patch mapped mirrored: every try of a small region
-  // around it adds folds at its rim, so stage 2 gives it up), in the same order.
-  u.wide = true;
-  u.wide_AB = untangle_surface_map(A, B, P, opt.wide_untangling, bij ? &Q : nullptr);
-  u.final_AB = u.wide_AB.after;
-  if (bij) {
-    u.wide_BA = untangle_surface_map(B, A, Q, opt.wide_untangling, &P);
-    u.final_BA = u.wide_BA.after;
+  if (opt.wide_untangle) {
+    // Stage 3: what the local regions left (a patch mapped mirrored: every try of a small
+    // region around it adds folds at its rim, so stage 2 gives it up), in the same order.
+    u.wide = true;
+    u.wide_AB = untangle_surface_map(A, B, P, opt.wide_untangling, bij ? &Q : nullptr);
+    u.final_AB = u.wide_AB.after;
+    if (bij) {
+      u.wide_BA = untangle_surface_map(B, A, Q, opt.wide_untangling, &P);
+      u.final_BA = u.wide_BA.after;
+    }
+  }
+  if (opt.sliver_untangle) {
+    // Stage 4: slivers, after the folds so that their regions do not change the fold stages'
+    u.slivers = true;
+    u.sliver_AB = untangle_surface_map(A, B, P, opt.sliver_untangling, bij ? &Q : nullptr);
+    u.final_AB = u.sliver_AB.after;
+    if (bij) {
+      u.sliver_BA = untangle_surface_map(B, A, Q, opt.sliver_untangling, &P);
+      u.final_BA = u.sliver_BA.after;
+    }
   }
   return u;
 }

@@ -390,6 +390,7 @@ nlohmann::json untangle_json_of(const UntangleResult& u) {
   return nlohmann::json{{"bad_triangles_before", u.before.bad()}, {"flipped_before", u.before.flipped},
                         {"collapsed_before", u.before.degenerate}, {"bad_triangles_after", u.after.bad()},
                         {"flipped_after", u.after.flipped}, {"collapsed_after", u.after.degenerate},
+                        {"slivers_before", u.slivers_before}, {"slivers_after", u.slivers_after},
                         {"regions", u.regions}, {"regions_kept", u.regions_kept},
                         {"vertices_moved", u.vertices_moved}, {"seconds", u.seconds}};
 }
@@ -410,6 +411,7 @@ void run_elastic(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& re
   ro.elastic = eo;
   ro.untangle = req.elastic.untangle;
   ro.wide_untangle = req.elastic.wide_untangle;
+  ro.sliver_untangle = req.elastic.sliver_untangle;
   const SurfaceRefinement ref = refine_surface_maps(RA, RB, initAB, initBA, ro);
   const ElasticResult& r = ref.elastic;
   nlohmann::json untangle_json = nlohmann::json{{"enabled", ref.untangled}};
@@ -422,6 +424,12 @@ void run_elastic(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& re
     if (u.wide) {
       untangle_json["wide"]["AB"] = untangle_json_of(u.wide_AB);
       if (bij) untangle_json["wide"]["BA"] = untangle_json_of(u.wide_BA);
+    }
+    // stage 4: regions around slivers (mapped triangles squashed nearly flat)
+    untangle_json["slivers"]["enabled"] = u.slivers;
+    if (u.slivers) {
+      untangle_json["slivers"]["AB"] = untangle_json_of(u.sliver_AB);
+      if (bij) untangle_json["slivers"]["BA"] = untangle_json_of(u.sliver_BA);
     }
   }
   run.AB_repaired = r.map_AB;

@@ -70,6 +70,8 @@ double untangle_reversibility_energy(const Eigen::Vector3d& y, const Eigen::Matr
 
 namespace {
 
+constexpr unsigned char kSliver = 3;  // face flag beside fold_counts' 1 (flipped) and 2 (collapsed)
+
 // Vertex -> incident faces (CSR).
 struct Incidence {
   std::vector<int> start, faces;
@@ -311,23 +313,37 @@ UntangleResult untangle_surface_map(const TriMesh& S, const TriMesh& T, Barycent
   Untangler U(S, T, P, opt.tether);
   if (Q && Q->size() == T.V.rows() && opt.reverse_weight > 0) U.set_reverse(*Q, opt.reverse_weight);
   const int n = int(S.V.rows()), m = int(S.F.rows());
+  // per face: 0 fine, 1 flipped, 2 collapsed (fold_counts), kSliver (opt.sliver_mips)
   std::vector<unsigned char> flags;
+  int slivers = 0;
   auto count = [&](std::vector<unsigned char>* fl) {
-    return fold_counts(U.Xs, S.F, U.Y, U.Nt, T.F, P, opt.degenerate_tol, fl);
+    const FoldCounts c = fold_counts(U.Xs, S.F, U.Y, U.Nt, T.F, P, opt.degenerate_tol, fl);
+    slivers = 0;
+    if (opt.sliver_mips > 0) {
+      const Eigen::VectorXd mips = conformal_distortion(U.Xs, U.Y, S.F);
+      for (int t = 0; t < m; ++t)
+        if ((*fl)[t] == 0 && mips(t) > opt.sliver_mips) {
+          (*fl)[t] = kSliver;
+          ++slivers;
+        }
+    }
+    return c;
   };
   res.before = count(&flags);
   res.after = res.before;
+  res.slivers_before = res.slivers_after = slivers;
   std::vector<unsigned char> moved(n, 0);
   // faces that were bad in a region whose try ended with more bad faces than it started with:
   // a fold that the region's vertices cannot undo (typically a whole patch mapped mirrored);
   // a larger region made only of such faces is not tried again.
   std::vector<unsigned char> hopeless(m, 0);
   int rings = opt.rings;
-  for (int round = 0; round < opt.rounds && res.after.bad() > 0; ++round, rings *= 2) {
+  for (int round = 0; round < opt.rounds && (opt.seed_folds ? res.after.bad() : 0) + res.slivers_after > 0;
+       ++round, rings *= 2) {
     // free vertices: the corners of bad faces and `rings` rings around them
     std::vector<unsigned char> fr(n, 0);
     for (int t = 0; t < m; ++t)
-      if (flags[t])
+      if (flags[t] == kSliver || (flags[t] && opt.seed_folds))
         for (int j = 0; j < 3; ++j) fr[S.F(t, j)] = 1;
     for (int k = 0; k < rings; ++k) {
       std::vector<unsigned char> next = fr;
@@ -364,9 +380,10 @@ UntangleResult untangle_surface_map(const TriMesh& S, const TriMesh& T, Barycent
         for (int i = U.inc_s.begin(v); i < U.inc_s.end(v); ++i) faces.push_back(U.inc_s.faces[i]);
       std::sort(faces.begin(), faces.end());
       faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
-      int bad_before = 0, bad_hopeless = 0;
+      int bad_before = 0, bad_hopeless = 0, folds_before = 0;
       for (int t : faces) {
         bad_before += flags[t] != 0;
+        folds_before += flags[t] != 0 && flags[t] != kSliver;
         bad_hopeless += flags[t] != 0 && hopeless[t];
       }
       if (bad_before == 0 || bad_hopeless == bad_before) continue;
@@ -382,7 +399,7 @@ UntangleResult untangle_surface_map(const TriMesh& S, const TriMesh& T, Barycent
       std::vector<int> seeds;
       for (int v : R)
         for (int i = U.inc_s.begin(v); i < U.inc_s.end(v); ++i)
-          if (flags[U.inc_s.faces[i]] >= opt.smooth_min_flag) {
+          if (flags[U.inc_s.faces[i]] != kSliver && flags[U.inc_s.faces[i]] >= opt.smooth_min_flag) {
             seeds.push_back(v);
             break;
           }
@@ -395,14 +412,21 @@ UntangleResult untangle_surface_map(const TriMesh& S, const TriMesh& T, Barycent
       }
       std::vector<unsigned char> fl;
       count(&fl);
-      int bad_after = 0;
-      for (int t : faces) bad_after += fl[t] != 0;
-      if (bad_after < bad_before) {
+      int bad_after = 0, folds_after = 0;
+      for (int t : faces) {
+        bad_after += fl[t] != 0;
+        folds_after += fl[t] != 0 && fl[t] != kSliver;
+      }
+      // folds first, then slivers: a region never trades a fold for slivers or back
+      const int slivers_b = bad_before - folds_before, slivers_a = bad_after - folds_after;
+      const bool better = folds_after < folds_before || (folds_after == folds_before && slivers_a < slivers_b);
+      const bool worse = folds_after > folds_before || (folds_after == folds_before && slivers_a > slivers_b);
+      if (better) {
         ++res.regions_kept;
         for (size_t i = 0; i < R.size(); ++i)
           if (P.elem(R[i]) != saved.elem(int(i)) || P.bary.row(R[i]) != saved.bary.row(int(i))) moved[R[i]] = 1;
       } else {
-        if (bad_after > bad_before)
+        if (worse)
           for (int t : faces)
             if (flags[t]) hopeless[t] = 1;
         for (size_t i = 0; i < R.size(); ++i)
@@ -410,6 +434,7 @@ UntangleResult untangle_surface_map(const TriMesh& S, const TriMesh& T, Barycent
       }
     }
     res.after = count(&flags);
+    res.slivers_after = slivers;
   }
   for (int v = 0; v < n; ++v) res.vertices_moved += moved[v];
   res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();

@@ -37,6 +37,7 @@ std::pair<BarycentricMap, BarycentricMap> surface_map_for_volumes(const TriMesh&
   SurfaceRefinementOptions ro;
   ro.untangle = settings.untangle;
   ro.wide_untangle = settings.wide_untangle;
+  ro.sliver_untangle = settings.sliver_untangle;
   std::string eta_choice;
   try {
     ro.elastic = elastic_options_from_settings(settings, SA, SB, bim.AB.map, bim.BA.map, true, eta_choice);

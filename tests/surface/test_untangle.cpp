@@ -186,3 +186,72 @@ TEST(Untangle, FoldFreeMapIsUnchanged) {
   EXPECT_EQ(P.elem, pair.truth_AB.elem);
   EXPECT_EQ(P.bary, pair.truth_AB.bary);
 }
+
+// Stage 4 (UntangleOptions::slivers): images pushed almost onto the segment between two of their
+// neighbours' images squash triangles nearly flat without turning them over; the sliver pass
+// leaves none of them (MIPS - 2 above the threshold), adds no fold and moves only vertices near
+// them; the fold stages' options (sliver_mips 0) leave such a map as it is.
+TEST(Untangle, InjectedSliversAreRelaxedWithoutAddingFolds) {
+  const GeneratedPair pair = make_creature_pair(3, PairKind::NonIsometric, 1500);
+  const TriMesh &A = pair.A, &B = pair.B;
+  const ClosestPoint3 bvh(B.V, B.F);
+  const Eigen::MatrixXd truth = map_positions(pair.truth_AB, B.V, B.F);
+  const int n = A.num_vertices();
+  std::vector<std::vector<int>> nb(n);
+  for (int f = 0; f < A.num_faces(); ++f)
+    for (int j = 0; j < 3; ++j) nb[A.F(f, j)].push_back(A.F(f, (j + 1) % 3));
+  const UntangleOptions opt = UntangleOptions::slivers();
+  auto slivers = [&](const BarycentricMap& P) {
+    const Eigen::VectorXd mips = conformal_distortion(A.V, map_positions(P, B.V, B.F), A.F);
+    int c = 0;
+    for (int t = 0; t < A.num_faces(); ++t) c += mips(t) > opt.sliver_mips && std::isfinite(mips(t));
+    return c;
+  };
+  ASSERT_EQ(slivers(pair.truth_AB), 0);
+  // a vertex v and the face (v, w, x) of A: v's image goes to 2% of the way from the midpoint of
+  // w's and x's images back to its own, so (v, w, x) is squashed but keeps its orientation
+  BarycentricMap P = pair.truth_AB;
+  std::vector<char> near(n, 0);
+  int injected = 0;
+  for (int f = 11; f < A.num_faces() && injected < 6; f += A.num_faces() / 6) {
+    const int v = A.F(f, 0), w = A.F(f, 1), x = A.F(f, 2);
+    if (near[v] || near[w] || near[x]) continue;
+    const Eigen::Vector3d mid = 0.5 * (truth.row(w) + truth.row(x)).transpose();
+    move_image(P, v, mid + 0.02 * (Eigen::Vector3d(truth.row(v).transpose()) - mid), bvh);
+    near[v] = 1;
+    ++injected;
+  }
+  ASSERT_GE(injected, 4);
+  const int folds0 = bad(A, B, P), slivers0 = slivers(P);
+  ASSERT_EQ(folds0, 0);
+  ASSERT_GE(slivers0, injected);
+  BarycentricMap unchanged = P;
+  const UntangleResult none = untangle_surface_map(A, B, unchanged, UntangleOptions{}, &pair.truth_BA);
+  EXPECT_EQ(none.regions, 0);
+  EXPECT_EQ(unchanged.elem, P.elem);
+  EXPECT_EQ(unchanged.bary, P.bary);
+  // the pass moves at most the corners of slivers and 2 + 4 rings around them
+  for (int k = 0; k < 7; ++k) {
+    std::vector<char> next = near;
+    for (int y = 0; y < n; ++y)
+      if (near[y])
+        for (int z : nb[y]) next[z] = 1;
+    near.swap(next);
+  }
+  const UntangleResult r = untangle_surface_map(A, B, P, opt, &pair.truth_BA);
+  EXPECT_EQ(r.slivers_before, slivers0);
+  EXPECT_EQ(r.slivers_after, slivers(P));
+  EXPECT_EQ(slivers(P), 0);
+  EXPECT_LE(bad(A, B, P), folds0);
+  validate_map(P, n, B.num_faces(), 3, "relaxed");
+  const Eigen::MatrixXd Y = map_positions(P, B.V, B.F);
+  const double diag = (B.V.colwise().maxCoeff() - B.V.colwise().minCoeff()).norm();
+  double far_moved = 0, err = 0;
+  for (int v = 0; v < n; ++v) {
+    const double d = (Y.row(v) - truth.row(v)).norm();
+    if (!near[v]) far_moved = std::max(far_moved, d);
+    err = std::max(err, d);
+  }
+  EXPECT_EQ(far_moved, 0.0);
+  EXPECT_LT(err, 0.05 * diag);
+}

@@ -8,9 +8,12 @@
 //      A -> B with the reverse map as the refinement returned it, then B -> A with the new
 //      A -> B;
 //   3. the same untangling again over wide regions with more sweeps (UntangleOptions::wide),
-//      for what stage 2 leaves: mostly patches mapped mirrored (docs/methods.md).
-// Stages 2 and 3 keep a region's new images only where its fold count falls, so the returned
-// maps never have more flipped or collapsed triangles than the refinement's.
+//      for what stage 2 leaves: mostly patches mapped mirrored (docs/methods.md);
+//   4. the same untangling over regions around slivers, mapped triangles squashed nearly flat
+//      (UntangleOptions::slivers).
+// Stages 2 and 3 keep a region's new images only where its fold count falls, stage 4 where its
+// sliver count falls and its fold count does not rise, so the returned maps never have more
+// flipped or collapsed triangles than the refinement's.
 #pragma once
 #include "shapemap/maps.h"
 #include "shapemap/mesh.h"
@@ -21,17 +24,21 @@ namespace shapemap {
 
 struct SurfaceRefinementOptions {
   ElasticOptions elastic;       // stage 1 (progress goes through elastic.progress)
-  bool untangle = true;         // stages 2 and 3 (--elastic-no-untangle turns both off)
+  bool untangle = true;         // stages 2 to 4 (--elastic-no-untangle turns them off)
   UntangleOptions untangling;   // stage 2
   bool wide_untangle = true;    // stage 3 (--elastic-no-wide-untangle turns it off)
   UntangleOptions wide_untangling = UntangleOptions::wide();
+  bool sliver_untangle = true;  // stage 4 (--elastic-no-sliver-untangle turns it off)
+  UntangleOptions sliver_untangling = UntangleOptions::slivers();
 };
 
-// Stages 2 and 3, per direction (BA: only with a reverse map).
+// Stages 2 to 4, per direction (BA: only with a reverse map).
 struct SurfaceUntangling {
   UntangleResult AB, BA;            // stage 2
   bool wide = false;                // stage 3 ran
   UntangleResult wide_AB, wide_BA;  // stage 3
+  bool slivers = false;             // stage 4 ran
+  UntangleResult sliver_AB, sliver_BA;  // stage 4
   FoldCounts final_AB, final_BA;    // the returned maps
 };
 
@@ -49,7 +56,7 @@ struct SurfaceRefinement {
 SurfaceRefinement refine_surface_maps(const TriMesh& A, const TriMesh& B, const BarycentricMap& init_AB,
                                       const BarycentricMap& init_BA, const SurfaceRefinementOptions& opt = {});
 
-// Stages 2 and 3 alone on P: A -> B and Q: B -> A (Q empty: A -> B only, without the
+// Stages 2 to 4 alone on P: A -> B and Q: B -> A (Q empty: A -> B only, without the
 // reversibility term), both changed in place.
 SurfaceUntangling untangle_surface_maps(const TriMesh& A, const TriMesh& B, BarycentricMap& P, BarycentricMap& Q,
                                         const SurfaceRefinementOptions& opt = {});

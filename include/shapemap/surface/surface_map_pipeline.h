@@ -44,6 +44,7 @@ struct ElasticSettings {
   // Then the same over wide regions with more sweeps, for what the first pass left (mostly
   // patches mapped mirrored; refine_surface_maps.h, stage 3).
   bool wide_untangle = true;
+  bool sliver_untangle = true;  // stage 4 of refine_surface_maps.h (--elastic-no-sliver-untangle)
 };
 
 // The elastic refinement's options for `o` (the preset's bending weight, or with preset "auto"

@@ -21,7 +21,10 @@
 // (Sec. 3.2's reversibility). The vertices outside the regions stay where they are. A
 // region's new images are kept only when the flipped + collapsed count of
 // eval/surface_distortion.h (fold_counts) over its triangles falls, so the stage never adds a
-// fold; regions still bad are retried with twice as many rings.
+// fold; regions still bad are retried with twice as many rings. Slivers, mapped triangles
+// neither flipped nor collapsed but squashed nearly flat (MIPS - 2 above sliver_mips), are
+// bad too: their regions are relaxed by the same energy, whose barrier they sit against, and
+// kept when they leave fewer slivers and no more folds.
 #pragma once
 #include "shapemap/eval/surface_distortion.h"
 #include "shapemap/maps.h"
@@ -47,6 +50,11 @@ struct UntangleOptions {
   // free vertex, Q(y) interpolated linearly over y's face (the round trip P then Q, Sec. 3.2).
   double reverse_weight = 10;
   double degenerate_tol = 1e-12;  // collapsed: a <= tol a^ (as surface_distortion counts)
+  // Sliver: a mapped triangle, not flipped or collapsed, whose conformal distortion MIPS - 2
+  // (surface_distortion's, s1/s2 + s2/s1 - 2) exceeds this (10: singular values ~12 apart).
+  // 0 = folds only (stages 2 and 3); slivers() sets it for stage 4.
+  double sliver_mips = 0;
+  bool seed_folds = true;     // regions grow from folds (and slivers); false: from slivers only
   // Stage 3 of refine_surface_maps.h, for what the defaults leave: regions of 4 (then 8) rings
   // and 200 sweeps from delta 0.3. A patch mapped mirrored needs both: the first try of a
   // 2-ring region around it adds folds at its rim, which marks its faces as not to be tried
@@ -61,12 +69,25 @@ struct UntangleOptions {
     o.delta_start = 0.3;
     return o;
   }
+  // Stage 4 of refine_surface_maps.h, after the folds: regions grown from slivers only (2
+  // rings), kept when they leave fewer slivers and no more folds. Separate from the fold
+  // stages because slivers seeded with the folds merge regions and cost folds (cat -> lion
+  // A -> B: 29 folds left without slivers, 65 with them in stage 2 and 3) and time. Threshold
+  // 10 measured against 100 and 4 on airplane -> bird and cat -> lion (docs/methods.md).
+  static UntangleOptions slivers() {
+    UntangleOptions o;
+    o.sliver_mips = 10;
+    o.seed_folds = false;
+    o.rounds = 2;
+    return o;
+  }
   // Both surfaces are measured as unit-area copies (Sec. 5.2's global scale, and the frame in
   // which surface_distortion counts), so a rest triangle and its image compare at one scale.
 };
 
 struct UntangleResult {
   FoldCounts before, after;   // flipped / collapsed triangles of the map, whole map
+  int slivers_before = 0, slivers_after = 0;  // slivers (sliver_mips), whole map
   int regions = 0;            // regions tried (all rounds)
   int regions_kept = 0;       // regions whose new images were kept
   int vertices_moved = 0;     // vertices whose image changed
