@@ -9,33 +9,23 @@ SurfaceUntangling untangle_surface_maps(const TriMesh& A, const TriMesh& B, Bary
                                         const SurfaceRefinementOptions& opt) {
   SurfaceUntangling u;
   const bool bij = Q.size() == B.num_vertices();
-  u.AB = untangle_surface_map(A, B, P, opt.untangling, bij ? &Q : nullptr);
-  u.final_AB = u.AB.after;
-  if (bij) {
-    u.BA = untangle_surface_map(B, A, Q, opt.untangling, &P);
-    u.final_BA = u.BA.after;
-  }
-  if (opt.wide_untangle) {
-    // Stage 3: what the local regions left (a patch mapped mirrored: every try of a small
-    // region around it adds folds at its rim, so stage 2 gives it up), in the same order.
-    u.wide = true;
-    u.wide_AB = untangle_surface_map(A, B, P, opt.wide_untangling, bij ? &Q : nullptr);
-    u.final_AB = u.wide_AB.after;
+  // one stage: A -> B with the reverse map as it is, then B -> A with the new A -> B
+  auto stage = [&](const UntangleOptions& o, UntangleResult& ab, UntangleResult& ba) {
+    ab = untangle_surface_map(A, B, P, o, bij ? &Q : nullptr);
+    u.final_AB = ab.after;
     if (bij) {
-      u.wide_BA = untangle_surface_map(B, A, Q, opt.wide_untangling, &P);
-      u.final_BA = u.wide_BA.after;
+      ba = untangle_surface_map(B, A, Q, o, &P);
+      u.final_BA = ba.after;
     }
-  }
-  if (opt.sliver_untangle) {
-    // Stage 4: slivers, after the folds so that their regions do not change the fold stages'
-    u.slivers = true;
-    u.sliver_AB = untangle_surface_map(A, B, P, opt.sliver_untangling, bij ? &Q : nullptr);
-    u.final_AB = u.sliver_AB.after;
-    if (bij) {
-      u.sliver_BA = untangle_surface_map(B, A, Q, opt.sliver_untangling, &P);
-      u.final_BA = u.sliver_BA.after;
-    }
-  }
+  };
+  stage(opt.untangling, u.AB, u.BA);
+  // Stage 3: what the local regions left (a patch mapped mirrored: every try of a small region
+  // around it adds folds at its rim, so stage 2 gives it up).
+  u.wide = opt.wide_untangle;
+  if (u.wide) stage(opt.wide_untangling, u.wide_AB, u.wide_BA);
+  // Stage 4: slivers, after the folds so that their regions do not change the fold stages'.
+  u.slivers = opt.sliver_untangle;
+  if (u.slivers) stage(opt.sliver_untangling, u.sliver_AB, u.sliver_BA);
   return u;
 }
 

@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 #include <cmath>
 #include <random>
+#include <utility>
 
 using namespace shapemap;
 
@@ -24,6 +25,31 @@ void move_image(BarycentricMap& P, int v, const Eigen::Vector3d& p, const Closes
   const ClosestPointResult r = bvh.query(p);
   P.elem(v) = r.elem;
   P.bary.row(v) = r.bary.head<3>().transpose() / r.bary.head<3>().sum();
+}
+
+// near (per vertex) grown by `rings` rings of the vertex neighbours nb.
+void grow_rings(std::vector<char>& near, const std::vector<std::vector<int>>& nb, int rings) {
+  for (int k = 0; k < rings; ++k) {
+    std::vector<char> next = near;
+    for (size_t x = 0; x < near.size(); ++x)
+      if (near[x])
+        for (int y : nb[x]) next[y] = 1;
+    near.swap(next);
+  }
+}
+
+// The largest distance from the truth of an image, over the vertices not marked near and over
+// all vertices (P's images against truth, both on T).
+std::pair<double, double> moves_from_truth(const BarycentricMap& P, const TriMesh& T, const Eigen::MatrixXd& truth,
+                                           const std::vector<char>& near) {
+  const Eigen::MatrixXd Y = map_positions(P, T.V, T.F);
+  double far_moved = 0, err = 0;
+  for (int v = 0; v < Y.rows(); ++v) {
+    const double d = (Y.row(v) - truth.row(v)).norm();
+    if (!near[v]) far_moved = std::max(far_moved, d);
+    err = std::max(err, d);
+  }
+  return {far_moved, err};
 }
 
 }  // namespace
@@ -146,13 +172,7 @@ TEST(Untangle, InjectedFoldsOnAGeneratedPairComeOutFoldFree) {
     near[v] = 1;
   }
   // the stage moves at most the corners of bad triangles and 2 + 4 + 8 rings around them
-  for (int k = 0; k < 9; ++k) {
-    std::vector<char> next = near;
-    for (int x = 0; x < n; ++x)
-      if (near[x])
-        for (int y : nb[x]) next[y] = 1;
-    near.swap(next);
-  }
+  grow_rings(near, nb, 9);
   int far = 0;
   for (int x = 0; x < n; ++x) far += !near[x];
   ASSERT_GT(far, n / 5);
@@ -163,14 +183,8 @@ TEST(Untangle, InjectedFoldsOnAGeneratedPairComeOutFoldFree) {
   EXPECT_EQ(r.after.bad(), 0);
   EXPECT_EQ(bad(A, B, P), 0);
   validate_map(P, n, B.num_faces(), 3, "untangled");
-  const Eigen::MatrixXd Y = map_positions(P, B.V, B.F);
   const double diag = (B.V.colwise().maxCoeff() - B.V.colwise().minCoeff()).norm();
-  double far_moved = 0, err = 0;
-  for (int v = 0; v < n; ++v) {
-    const double d = (Y.row(v) - truth.row(v)).norm();
-    if (!near[v]) far_moved = std::max(far_moved, d);
-    err = std::max(err, d);
-  }
+  const auto [far_moved, err] = moves_from_truth(P, B, truth, near);
   EXPECT_EQ(far_moved, 0.0);
   EXPECT_LT(err, 0.05 * diag);
 }
@@ -231,27 +245,15 @@ TEST(Untangle, InjectedSliversAreRelaxedWithoutAddingFolds) {
   EXPECT_EQ(unchanged.elem, P.elem);
   EXPECT_EQ(unchanged.bary, P.bary);
   // the pass moves at most the corners of slivers and 2 + 4 rings around them
-  for (int k = 0; k < 7; ++k) {
-    std::vector<char> next = near;
-    for (int y = 0; y < n; ++y)
-      if (near[y])
-        for (int z : nb[y]) next[z] = 1;
-    near.swap(next);
-  }
+  grow_rings(near, nb, 7);
   const UntangleResult r = untangle_surface_map(A, B, P, opt, &pair.truth_BA);
   EXPECT_EQ(r.slivers_before, slivers0);
   EXPECT_EQ(r.slivers_after, slivers(P));
   EXPECT_EQ(slivers(P), 0);
   EXPECT_LE(bad(A, B, P), folds0);
   validate_map(P, n, B.num_faces(), 3, "relaxed");
-  const Eigen::MatrixXd Y = map_positions(P, B.V, B.F);
   const double diag = (B.V.colwise().maxCoeff() - B.V.colwise().minCoeff()).norm();
-  double far_moved = 0, err = 0;
-  for (int v = 0; v < n; ++v) {
-    const double d = (Y.row(v) - truth.row(v)).norm();
-    if (!near[v]) far_moved = std::max(far_moved, d);
-    err = std::max(err, d);
-  }
+  const auto [far_moved, err] = moves_from_truth(P, B, truth, near);
   EXPECT_EQ(far_moved, 0.0);
   EXPECT_LT(err, 0.05 * diag);
 }
