@@ -325,6 +325,99 @@ struct Untangler {
   }
 };
 
+// Per face of S: 0 fine, 1 flipped, 2 collapsed (fold_counts), kSliver (opt.sliver_mips).
+// Returns the fold counts; *slivers: the faces marked kSliver.
+FoldCounts classify_faces(const Untangler& U, const TriMesh& S, const TriMesh& T, const BarycentricMap& P,
+                          const UntangleOptions& opt, std::vector<unsigned char>& flags, int* slivers) {
+  const FoldCounts c = fold_counts(U.Xs, S.F, U.Y, U.Nt, T.F, P, opt.degenerate_tol, &flags);
+  *slivers = 0;
+  if (opt.sliver_mips > 0) {
+    const Eigen::VectorXd mips = conformal_distortion(U.Xs, U.Y, S.F);
+    for (int t = 0; t < S.F.rows(); ++t)
+      if (flags[t] == 0 && mips(t) > opt.sliver_mips) {
+        flags[t] = kSliver;
+        ++*slivers;
+      }
+  }
+  return c;
+}
+
+// The round's regions: the corners of the seeding faces (slivers, and folds when
+// opt.seed_folds) and `rings` rings around them, split into connected components (each
+// sorted, in ascending order of their least vertex).
+std::vector<std::vector<int>> free_regions(const Untangler& U, const Eigen::MatrixXi& F, int n,
+                                           const std::vector<unsigned char>& flags, bool seed_folds, int rings) {
+  const int m = int(F.rows());
+  std::vector<unsigned char> fr(n, 0);
+  for (int t = 0; t < m; ++t)
+    if (flags[t] == kSliver || (flags[t] && seed_folds))
+      for (int j = 0; j < 3; ++j) fr[F(t, j)] = 1;
+  for (int k = 0; k < rings; ++k) {
+    std::vector<unsigned char> next = fr;
+    for (int t = 0; t < m; ++t)
+      if (fr[F(t, 0)] || fr[F(t, 1)] || fr[F(t, 2)])
+        for (int j = 0; j < 3; ++j) next[F(t, j)] = 1;
+    fr.swap(next);
+  }
+  std::vector<int> comp(n, -1);
+  std::vector<std::vector<int>> regions;
+  for (int s = 0; s < n; ++s) {
+    if (!fr[s] || comp[s] >= 0) continue;
+    std::vector<int> R{s};
+    comp[s] = int(regions.size());
+    for (size_t q = 0; q < R.size(); ++q) {
+      const int v = R[q];
+      for (int i = U.inc_s.begin(v); i < U.inc_s.end(v); ++i)
+        for (int j = 0; j < 3; ++j) {
+          const int w = F(U.inc_s.faces[i], j);
+          if (fr[w] && comp[w] < 0) {
+            comp[w] = comp[s];
+            R.push_back(w);
+          }
+        }
+    }
+    std::sort(R.begin(), R.end());
+    regions.push_back(std::move(R));
+  }
+  return regions;
+}
+
+// Bad faces among `faces`: all, folds alone, and those marked hopeless.
+struct Tally {
+  int bad = 0, folds = 0, hopeless = 0;
+  int slivers() const { return bad - folds; }
+};
+Tally tally(const std::vector<int>& faces, const std::vector<unsigned char>& flags,
+            const std::vector<unsigned char>& hopeless) {
+  Tally c;
+  for (int t : faces) {
+    c.bad += flags[t] != 0;
+    c.folds += flags[t] != 0 && flags[t] != kSliver;
+    c.hopeless += flags[t] != 0 && hopeless[t];
+  }
+  return c;
+}
+
+// Tutte sweeps over the corners of the region's collapsed (or flipped) triangles, then the
+// energy's sweeps over all its vertices with delta shrinking geometrically.
+void relax_region(Untangler& U, const std::vector<int>& R, const std::vector<unsigned char>& flags,
+                  const UntangleOptions& opt) {
+  std::vector<int> seeds;
+  for (int v : R)
+    for (int i = U.inc_s.begin(v); i < U.inc_s.end(v); ++i)
+      if (flags[U.inc_s.faces[i]] != kSliver && flags[U.inc_s.faces[i]] >= opt.smooth_min_flag) {
+        seeds.push_back(v);
+        break;
+      }
+  for (int s = 0; s < opt.smooth_sweeps; ++s)
+    for (int v : seeds) U.average_vertex(v);
+  for (int s = 0; s < opt.sweeps; ++s) {
+    const double w = opt.sweeps > 1 ? double(s) / (opt.sweeps - 1) : 1.0;
+    const double delta = opt.delta_start * std::pow(opt.delta_end / opt.delta_start, w);
+    for (int v : R) U.relax_vertex(v, delta);
+  }
+}
+
 }  // namespace
 
 UntangleResult untangle_surface_map(const TriMesh& S, const TriMesh& T, BarycentricMap& P,
@@ -334,80 +427,26 @@ UntangleResult untangle_surface_map(const TriMesh& S, const TriMesh& T, Barycent
   Untangler U(S, T, P, opt.tether);
   if (Q && Q->size() == T.V.rows() && opt.reverse_weight > 0) U.set_reverse(*Q, opt.reverse_weight);
   const int n = int(S.V.rows()), m = int(S.F.rows());
-  // per face: 0 fine, 1 flipped, 2 collapsed (fold_counts), kSliver (opt.sliver_mips)
-  std::vector<unsigned char> flags;
-  int slivers = 0;
-  auto count = [&](std::vector<unsigned char>* fl) {
-    const FoldCounts c = fold_counts(U.Xs, S.F, U.Y, U.Nt, T.F, P, opt.degenerate_tol, fl);
-    slivers = 0;
-    if (opt.sliver_mips > 0) {
-      const Eigen::VectorXd mips = conformal_distortion(U.Xs, U.Y, S.F);
-      for (int t = 0; t < m; ++t)
-        if ((*fl)[t] == 0 && mips(t) > opt.sliver_mips) {
-          (*fl)[t] = kSliver;
-          ++slivers;
-        }
-    }
-    return c;
-  };
-  res.before = count(&flags);
-  res.after = res.before;
-  res.slivers_before = res.slivers_after = slivers;
+  std::vector<unsigned char> flags, fl;
+  res.before = res.after = classify_faces(U, S, T, P, opt, flags, &res.slivers_before);
+  res.slivers_after = res.slivers_before;
   std::vector<unsigned char> moved(n, 0);
-  // faces that were bad in a region whose try ended with more bad faces than it started with:
-  // a fold that the region's vertices cannot undo (typically a whole patch mapped mirrored);
-  // a larger region made only of such faces is not tried again.
+  // faces that were bad in a region whose try ended worse than it started: a fold that the
+  // region's vertices cannot undo (typically a whole patch mapped mirrored); a larger region
+  // made only of such faces is not tried again.
   std::vector<unsigned char> hopeless(m, 0);
   int rings = opt.rings;
   for (int round = 0; round < opt.rounds && (opt.seed_folds ? res.after.bad() : 0) + res.slivers_after > 0;
        ++round, rings *= 2) {
-    // free vertices: the corners of bad faces and `rings` rings around them
-    std::vector<unsigned char> fr(n, 0);
-    for (int t = 0; t < m; ++t)
-      if (flags[t] == kSliver || (flags[t] && opt.seed_folds))
-        for (int j = 0; j < 3; ++j) fr[S.F(t, j)] = 1;
-    for (int k = 0; k < rings; ++k) {
-      std::vector<unsigned char> next = fr;
-      for (int t = 0; t < m; ++t)
-        if (fr[S.F(t, 0)] || fr[S.F(t, 1)] || fr[S.F(t, 2)])
-          for (int j = 0; j < 3; ++j) next[S.F(t, j)] = 1;
-      fr.swap(next);
-    }
-    // regions: connected components of the free vertices (in ascending order of their least vertex)
-    std::vector<int> comp(n, -1);
-    std::vector<std::vector<int>> regions;
-    for (int s = 0; s < n; ++s) {
-      if (!fr[s] || comp[s] >= 0) continue;
-      std::vector<int> R{s};
-      comp[s] = int(regions.size());
-      for (size_t q = 0; q < R.size(); ++q) {
-        const int v = R[q];
-        for (int i = U.inc_s.begin(v); i < U.inc_s.end(v); ++i)
-          for (int j = 0; j < 3; ++j) {
-            const int w = S.F(U.inc_s.faces[i], j);
-            if (fr[w] && comp[w] < 0) {
-              comp[w] = comp[s];
-              R.push_back(w);
-            }
-          }
-      }
-      std::sort(R.begin(), R.end());
-      regions.push_back(std::move(R));
-    }
-    for (const std::vector<int>& R : regions) {
+    for (const std::vector<int>& R : free_regions(U, S.F, n, flags, opt.seed_folds, rings)) {
       // the faces the region's images touch, and how many of them are bad now
       std::vector<int> faces;
       for (int v : R)
         for (int i = U.inc_s.begin(v); i < U.inc_s.end(v); ++i) faces.push_back(U.inc_s.faces[i]);
       std::sort(faces.begin(), faces.end());
       faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
-      int bad_before = 0, bad_hopeless = 0, folds_before = 0;
-      for (int t : faces) {
-        bad_before += flags[t] != 0;
-        folds_before += flags[t] != 0 && flags[t] != kSliver;
-        bad_hopeless += flags[t] != 0 && hopeless[t];
-      }
-      if (bad_before == 0 || bad_hopeless == bad_before) continue;
+      const Tally before = tally(faces, flags, hopeless);
+      if (before.bad == 0 || before.hopeless == before.bad) continue;
       ++res.regions;
       BarycentricMap saved;
       saved.elem.resize(int(R.size()));
@@ -416,32 +455,13 @@ UntangleResult untangle_surface_map(const TriMesh& S, const TriMesh& T, Barycent
         saved.elem(int(i)) = P.elem(R[i]);
         saved.bary.row(int(i)) = P.bary.row(R[i]);
       }
-      // Tutte sweeps over the corners of bad triangles (of this region), then the energy
-      std::vector<int> seeds;
-      for (int v : R)
-        for (int i = U.inc_s.begin(v); i < U.inc_s.end(v); ++i)
-          if (flags[U.inc_s.faces[i]] != kSliver && flags[U.inc_s.faces[i]] >= opt.smooth_min_flag) {
-            seeds.push_back(v);
-            break;
-          }
-      for (int s = 0; s < opt.smooth_sweeps; ++s)
-        for (int v : seeds) U.average_vertex(v);
-      for (int s = 0; s < opt.sweeps; ++s) {
-        const double w = opt.sweeps > 1 ? double(s) / (opt.sweeps - 1) : 1.0;
-        const double delta = opt.delta_start * std::pow(opt.delta_end / opt.delta_start, w);
-        for (int v : R) U.relax_vertex(v, delta);
-      }
-      std::vector<unsigned char> fl;
-      count(&fl);
-      int bad_after = 0, folds_after = 0;
-      for (int t : faces) {
-        bad_after += fl[t] != 0;
-        folds_after += fl[t] != 0 && fl[t] != kSliver;
-      }
+      relax_region(U, R, flags, opt);
+      int unused = 0;
+      classify_faces(U, S, T, P, opt, fl, &unused);
+      const Tally after = tally(faces, fl, hopeless);
       // folds first, then slivers: a region never trades a fold for slivers or back
-      const int slivers_b = bad_before - folds_before, slivers_a = bad_after - folds_after;
-      const bool better = folds_after < folds_before || (folds_after == folds_before && slivers_a < slivers_b);
-      const bool worse = folds_after > folds_before || (folds_after == folds_before && slivers_a > slivers_b);
+      const bool better = after.folds < before.folds || (after.folds == before.folds && after.slivers() < before.slivers());
+      const bool worse = after.folds > before.folds || (after.folds == before.folds && after.slivers() > before.slivers());
       if (better) {
         ++res.regions_kept;
         for (size_t i = 0; i < R.size(); ++i)
@@ -454,8 +474,7 @@ UntangleResult untangle_surface_map(const TriMesh& S, const TriMesh& T, Barycent
           U.set_image(R[i], saved.elem(int(i)), saved.bary.row(int(i)).transpose());
       }
     }
-    res.after = count(&flags);
-    res.slivers_after = slivers;
+    res.after = classify_faces(U, S, T, P, opt, flags, &res.slivers_after);
   }
   for (int v = 0; v < n; ++v) res.vertices_moved += moved[v];
   res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
