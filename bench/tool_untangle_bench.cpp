@@ -5,7 +5,8 @@
 // flipped + collapsed triangles after each stage (on the repaired surfaces, as report.json,
 // and on the inputs, as bench/surface_real.sh) and the round trip: the mean over A's vertices
 // of |Q(P(x)) - x| over A's bounding-box diagonal, on the inputs, as bench/surface_real.sh.
-// Usage: tool_untangle_bench A B map_AB map_BA [--no-wide] [--sliver-mips M] [-o DIR]
+// Usage: tool_untangle_bench A B map_AB map_BA [--no-wide] [--sliver-mips M] [--passes N] [-o DIR]
+// (--passes: SurfaceRefinementOptions::untangle_passes, default 3)
 // (--sliver-mips: stage 4's threshold, 0 skips stage 4)
 // (-o: writes the resulting map_AB.txt and map_BA.txt there, inputs' numbering).
 #include "shapemap/eval/surface_distortion.h"
@@ -38,16 +39,24 @@ double round_trip(const TriMesh& A, const TriMesh& B, const BarycentricMap& P, c
 
 int main(int argc, char** argv) {
   if (argc < 5) {
-    std::fprintf(stderr, "usage: tool_untangle_bench A B map_AB map_BA [--no-wide] [--sliver-mips M] [-o DIR]\n");
+    std::fprintf(stderr, "usage: tool_untangle_bench A B map_AB map_BA [--no-wide] [--sliver-mips M] [--passes N] [-o DIR]\n");
     return 2;
   }
   SurfaceRefinementOptions opt;
   std::string out;
   for (int i = 5; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--no-wide")) opt.wide_untangle = false;
+    else if (!std::strcmp(argv[i], "--passes") && i + 1 < argc) opt.untangle_passes = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "-o") && i + 1 < argc) out = argv[++i];
     else if (!std::strcmp(argv[i], "--sliver-mips") && i + 1 < argc)
       opt.sliver_untangling.sliver_mips = std::atof(argv[++i]);  // 0: no stage 4
+    else if (!std::strcmp(argv[i], "--reverse-weight") && i + 1 < argc) {
+      const double w = std::atof(argv[++i]);
+      opt.untangling.reverse_weight = opt.wide_untangling.reverse_weight = opt.sliver_untangling.reverse_weight = w;
+    } else if (!std::strcmp(argv[i], "--tether") && i + 1 < argc) {
+      const double w = std::atof(argv[++i]);
+      opt.untangling.tether = opt.wide_untangling.tether = opt.sliver_untangling.tether = w;
+    }
   }
   if (!(opt.sliver_untangling.sliver_mips > 0)) opt.sliver_untangle = false;
   const TriMesh A = read_surface(argv[1]), B = read_surface(argv[2]);
@@ -79,7 +88,7 @@ int main(int argc, char** argv) {
                 u.sliver_AB.slivers_before, u.sliver_AB.slivers_after, u.sliver_AB.before.bad(),
                 u.sliver_AB.after.bad(), u.sliver_BA.slivers_before, u.sliver_BA.slivers_after,
                 u.sliver_BA.before.bad(), u.sliver_BA.after.bad());
-  std::printf("seconds %.1f\n", sec);
+  std::printf("passes %d, seconds %.1f\n", u.passes, sec);
   if (!out.empty()) {
     write_map(out + "/map_AB.txt", map_to_inputs(P, rA, rB, B));
     write_map(out + "/map_BA.txt", map_to_inputs(Q, rB, rA, A));

@@ -58,6 +58,11 @@ void add_elastic_options(CLI::App* app, ElasticSettings& o, std::string& truth_a
                 "elastic: leave slivers (default: a last pass relaxes the regions around mapped "
                 "triangles squashed nearly flat, MIPS - 2 > 10, and keeps a region's change only "
                 "where the sliver count falls and the fold count does not rise; docs/methods.md)");
+  app->add_option("--elastic-untangle-passes", o.untangle_passes,
+                  "elastic: repeat the untangling's stages at most this many times while a pass "
+                  "lowers the flipped + collapsed count of both maps (default 3; 1: one pass; "
+                  "docs/methods.md)")
+      ->check(CLI::Range(1, 100));
   app->add_option("--elastic-inner-iterations", o.inner_iterations,
                   "elastic: at most this many L-BFGS iterations per Y step (Sec. 5.1: 50)")
       ->check(non_negative());

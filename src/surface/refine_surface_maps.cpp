@@ -3,29 +3,61 @@
 
 #include "shapemap/error.h"
 
+#include <algorithm>
+
 namespace shapemap {
+
+namespace {
+// A stage's result over several passes: the first pass's counts before, the last pass's after,
+// the work summed (vertices_moved: summed, a vertex moved in two passes counts twice).
+void accumulate(UntangleResult& total, const UntangleResult& pass, bool first) {
+  if (first) {
+    total = pass;
+    return;
+  }
+  total.after = pass.after;
+  total.slivers_after = pass.slivers_after;
+  total.regions += pass.regions;
+  total.regions_kept += pass.regions_kept;
+  total.vertices_moved += pass.vertices_moved;
+  total.seconds += pass.seconds;
+}
+}  // namespace
 
 SurfaceUntangling untangle_surface_maps(const TriMesh& A, const TriMesh& B, BarycentricMap& P, BarycentricMap& Q,
                                         const SurfaceRefinementOptions& opt) {
   SurfaceUntangling u;
   const bool bij = Q.size() == B.num_vertices();
-  // one stage: A -> B with the reverse map as it is, then B -> A with the new A -> B
-  auto stage = [&](const UntangleOptions& o, UntangleResult& ab, UntangleResult& ba) {
-    ab = untangle_surface_map(A, B, P, o, bij ? &Q : nullptr);
-    u.final_AB = ab.after;
-    if (bij) {
-      ba = untangle_surface_map(B, A, Q, o, &P);
-      u.final_BA = ba.after;
-    }
-  };
-  stage(opt.untangling, u.AB, u.BA);
-  // Stage 3: what the local regions left (a patch mapped mirrored: every try of a small region
-  // around it adds folds at its rim, so stage 2 gives it up).
   u.wide = opt.wide_untangle;
-  if (u.wide) stage(opt.wide_untangling, u.wide_AB, u.wide_BA);
-  // Stage 4: slivers, after the folds so that their regions do not change the fold stages'.
   u.slivers = opt.sliver_untangle;
-  if (u.slivers) stage(opt.sliver_untangling, u.sliver_AB, u.sliver_BA);
+  int folds = -1;  // flipped + collapsed, both directions, after the last pass
+  for (int pass = 0; pass < std::max(1, opt.untangle_passes); ++pass) {
+    const bool first = pass == 0;
+    // one stage: A -> B with the reverse map as it is, then B -> A with the new A -> B
+    auto stage = [&](const UntangleOptions& o, UntangleResult& ab, UntangleResult& ba) {
+      const UntangleResult rab = untangle_surface_map(A, B, P, o, bij ? &Q : nullptr);
+      accumulate(ab, rab, first);
+      u.final_AB = rab.after;
+      if (bij) {
+        const UntangleResult rba = untangle_surface_map(B, A, Q, o, &P);
+        accumulate(ba, rba, first);
+        u.final_BA = rba.after;
+      }
+    };
+    stage(opt.untangling, u.AB, u.BA);
+    // Stage 3: what the local regions left (a patch mapped mirrored: every try of a small region
+    // around it adds folds at its rim, so stage 2 gives it up).
+    if (u.wide) stage(opt.wide_untangling, u.wide_AB, u.wide_BA);
+    // Stage 4: slivers, after the folds so that their regions do not change the fold stages'.
+    if (u.slivers) stage(opt.sliver_untangling, u.sliver_AB, u.sliver_BA);
+    u.passes = pass + 1;
+    // Another pass starts with no region given up (untangle.cpp's `hopeless` marks are per
+    // call) and with each direction's reverse term on the other's latest map; it is run while
+    // the last one lowered the folds (each pass never raises them).
+    const int now = u.final_AB.bad() + (bij ? u.final_BA.bad() : 0);
+    if (now == 0 || (!first && now >= folds)) break;
+    folds = now;
+  }
   return u;
 }
 

@@ -409,14 +409,13 @@ void run_elastic(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& re
   eo.progress = progress;
   SurfaceRefinementOptions ro;
   ro.elastic = eo;
-  ro.untangle = req.elastic.untangle;
-  ro.wide_untangle = req.elastic.wide_untangle;
-  ro.sliver_untangle = req.elastic.sliver_untangle;
+  set_untangle_stages(req.elastic, ro);
   const SurfaceRefinement ref = refine_surface_maps(RA, RB, initAB, initBA, ro);
   const ElasticResult& r = ref.elastic;
   nlohmann::json untangle_json = nlohmann::json{{"enabled", ref.untangled}};
   if (ref.untangled) {
     const SurfaceUntangling& u = ref.untangling;
+    untangle_json["passes"] = u.passes;  // stages 2-4 repeated while the folds fell
     untangle_json["AB"] = untangle_json_of(u.AB);
     if (bij) untangle_json["BA"] = untangle_json_of(u.BA);
     // stage 3 (refine_surface_maps.h): the same over wide regions, for what stage 2 left
@@ -446,6 +445,13 @@ void run_elastic(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& re
 }
 
 }  // namespace
+
+void set_untangle_stages(const ElasticSettings& o, SurfaceRefinementOptions& ro) {
+  ro.untangle = o.untangle;
+  ro.wide_untangle = o.wide_untangle;
+  ro.sliver_untangle = o.sliver_untangle;
+  ro.untangle_passes = o.untangle_passes;
+}
 
 ElasticOptions elastic_options_from_settings(const ElasticSettings& o, const TriMesh& A, const TriMesh& B,
                                              const BarycentricMap& initAB, const BarycentricMap& initBA,

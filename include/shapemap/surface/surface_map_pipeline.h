@@ -10,6 +10,7 @@
 #include "shapemap/repair.h"
 #include "shapemap/surface/bim.h"
 #include "shapemap/surface/elastic.h"
+#include "shapemap/surface/refine_surface_maps.h"
 #include <nlohmann/json.hpp>
 #include <memory>
 #include <string>
@@ -45,7 +46,12 @@ struct ElasticSettings {
   // patches mapped mirrored; refine_surface_maps.h, stage 3).
   bool wide_untangle = true;
   bool sliver_untangle = true;  // stage 4 of refine_surface_maps.h (--elastic-no-sliver-untangle)
+  int untangle_passes = 3;      // stages 2-4 repeated while folds fall (--elastic-untangle-passes)
 };
+
+// The untangling stages of `o` (refine_surface_maps.h, stages 2 to 4) set in `ro`. Shared by
+// the surface-map command and volume-map's automatic initialization.
+void set_untangle_stages(const ElasticSettings& o, SurfaceRefinementOptions& ro);
 
 // The elastic refinement's options for `o` (the preset's bending weight, or with preset "auto"
 // Sec. 5.2's rule on the initial maps: bending_weight_for_initial_maps; Q counts only when
