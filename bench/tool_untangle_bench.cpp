@@ -7,6 +7,7 @@
 // of |Q(P(x)) - x| over A's bounding-box diagonal, on the inputs, as bench/surface_real.sh.
 // Usage: tool_untangle_bench A B map_AB map_BA [--no-wide] [--sliver-mips M] [--passes N] [-o DIR]
 // (--passes: SurfaceRefinementOptions::untangle_passes, default 3)
+// (--reverse-weight W, --tether T: UntangleOptions::reverse_weight / tether of every stage)
 // (--sliver-mips: stage 4's threshold, 0 skips stage 4)
 // (-o: writes the resulting map_AB.txt and map_BA.txt there, inputs' numbering).
 #include "shapemap/eval/surface_distortion.h"
@@ -39,7 +40,8 @@ double round_trip(const TriMesh& A, const TriMesh& B, const BarycentricMap& P, c
 
 int main(int argc, char** argv) {
   if (argc < 5) {
-    std::fprintf(stderr, "usage: tool_untangle_bench A B map_AB map_BA [--no-wide] [--sliver-mips M] [--passes N] [-o DIR]\n");
+    std::fprintf(stderr, "usage: tool_untangle_bench A B map_AB map_BA [--no-wide] [--sliver-mips M] [--passes N] "
+                 "[--reverse-weight W] [--tether T] [-o DIR]\n");
     return 2;
   }
   SurfaceRefinementOptions opt;
