@@ -13,12 +13,14 @@
 // 5900 gives a >= 5,000-vertex pair), SHAPEMAP_ELASTIC_WARM_START (default 1:
 // ElasticOptions::lbfgs_warm_start), SHAPEMAP_ELASTIC_SPEED10K_VERTICES (default 13500),
 // SHAPEMAP_ELASTIC_RAMP_F_TOL (ElasticOptions::inner_f_tol_ramp, default 0),
-// SHAPEMAP_ELASTIC_ETA, SHAPEMAP_ELASTIC_ENERGY_TOL.
+// SHAPEMAP_ELASTIC_ETA, SHAPEMAP_ELASTIC_ENERGY_TOL, SHAPEMAP_ELASTIC_ANCHORS (default 1: the speed runs
+// include the feature anchors as surface-map runs them; 0: none).
 #include "shapemap/eval/surface_distortion.h"
 #include "shapemap/eval/surface_metrics.h"
 #include "shapemap/generate.h"
 #include "shapemap/surface/bim.h"
 #include "shapemap/surface/elastic.h"
+#include "shapemap/surface/feature_anchors.h"
 #include "shapemap/maps.h"
 
 #include <chrono>
@@ -96,6 +98,14 @@ double speed_run(int nv) {
   env_options(o);
   t0 = now();
   const std::clock_t c0 = std::clock();
+  // stage 0 of refine_surface_maps.h, as surface-map runs it (SHAPEMAP_ELASTIC_ANCHORS=0: none)
+  FeatureAnchors anchors;
+  if (env_int("SHAPEMAP_ELASTIC_ANCHORS", 1) != 0) {
+    anchors = mutual_feature_anchors(pair.A, pair.B, bim.AB.map, bim.BA.map);
+    o.anchors.A = anchors.A;
+    o.anchors.B = anchors.B;
+  }
+  const double t_anchors = now() - t0;
   ElasticResult r = elastic_correspondence(pair.A, pair.B, bim.AB.map, bim.BA.map, o);
   const double t_el = now() - t0;
   const double cpu_el = double(std::clock() - c0) / CLOCKS_PER_SEC;
@@ -106,6 +116,8 @@ double speed_run(int nv) {
               pair.A.num_vertices(), pair.B.num_vertices(), t_bim, t_el, cpu_el, o.eta,
               o.inner_f_tol_ramp, r.time_setup, r.outer_iterations, int(r.converged),
               o.precondition_stiffness);
+  std::printf("  feature anchors (included above): %zu pairs, %.2f s; held A->B %d, B->A %d\n", anchors.A.size(),
+              t_anchors, r.anchors_holding_AB, r.anchors_holding_BA);
   std::printf("  per outer iteration: %.4f s = projection %.4f s + deformation %.4f s\n",
               (r.time_projection + r.time_deformation) / K, r.time_projection / K,
               r.time_deformation / K);

@@ -63,6 +63,26 @@ void add_elastic_options(CLI::App* app, ElasticSettings& o, std::string& truth_a
                   "lowers the flipped + collapsed count of both maps (default 3; 1: one pass; "
                   "docs/methods.md)")
       ->check(CLI::Range(1, 100));
+  app->add_flag("--elastic-no-feature-anchors", [&o](std::int64_t) { o.feature_anchors = false; },
+                "elastic: no anchors (default: the AGD maxima that the initial maps send onto each "
+                "other, or the landmarks, keep their partners through the refinement; ours, "
+                "docs/methods.md)");
+  app->add_option("--elastic-anchor-weight", o.anchor_weight,
+                  "elastic: weight of the anchors' term, times beta and the vertex's mass "
+                  "(default 10; 0: only their fixed rows of P and Q)")
+      ->check(non_negative());
+  app->add_option("--elastic-anchor-activation", o.anchor_activation,
+                  "elastic: an anchor holds once the refinement moves its vertex's image farther "
+                  "than this from its partner (unit-area frames; default 0.01; 0: from the start)")
+      ->check(non_negative());
+  app->add_flag("--elastic-anchors-hold-to-end", o.anchor_hold_to_end,
+                "elastic: anchors hold to the last outer iteration (default: they let go once beta "
+                "has reached its final value, Sec. 5.2's ramp, so that the patch around each "
+                "relaxes)");
+  app->add_option("--elastic-anchor-tolerance", o.anchor_tolerance,
+                  "elastic: a pair of AGD maxima is an anchor when the initial maps send each within "
+                  "this distance of the other (unit-area frames; default 0.005)")
+      ->check(non_negative());
   app->add_option("--elastic-inner-iterations", o.inner_iterations,
                   "elastic: at most this many L-BFGS iterations per Y step (Sec. 5.1: 50)")
       ->check(non_negative());

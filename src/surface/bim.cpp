@@ -158,6 +158,32 @@ void breadth_first_order(const Eigen::MatrixXi& F, int n, std::vector<int>& orde
 }  // namespace
 
 // ---------------------------------------------------------------------------------------
+// P_even (Sec. 5): farthest-point samples from a random vertex, heat geodesics from them; the
+// AGD (Sec. 4; each P_even point stands for area 1/k of the unit-area surface) and its maxima,
+// the feature points (or the landmarks when given).
+void bim_sample_features(const TriMesh& mesh, const BIMOptions& opt, const std::vector<int>& landmarks,
+                         std::vector<int>& even, Eigen::MatrixXd& even_dist, Eigen::VectorXd& agd,
+                         std::vector<int>& features) {
+  const int n = mesh.num_vertices();
+  HeatGeodesics geo(mesh.V, mesh.F, opt.heat_t_factor);
+  std::uint64_t rs = opt.seed ^ 0x5bd1e995ULL ^ std::uint64_t(n);
+  const int first = int(splitmix64(rs) % std::uint64_t(n));
+  even = farthest_point_sampling_graph(mesh.V, mesh.F, std::min(opt.num_even, n), first);
+  even_dist = geo.distances(even);
+  agd = even_dist.rowwise().mean();
+  if (!landmarks.empty()) {
+    features = landmarks;
+    return;
+  }
+  features = agd_maxima(mesh, agd, opt.feature_radius, opt.max_features);
+  // Too few maxima (nearly symmetric blobs): add spread samples (FPS order).
+  for (int v : even) {
+    if (int(features.size()) >= opt.min_features) break;
+    if (std::find(features.begin(), features.end(), v) == features.end()) features.push_back(v);
+  }
+}
+
+// ---------------------------------------------------------------------------------------
 BIMSurface bim_prepare(const TriMesh& input, const std::string& name, const BIMOptions& opt,
                        const std::vector<int>& landmarks, const ProgressCallback& progress) {
   BIMSurface s;
@@ -179,30 +205,12 @@ BIMSurface bim_prepare(const TriMesh& input, const std::string& name, const BIMO
   s.timings.push_back({"checks_normalize", seconds_since(t0)});
   report(progress, "bim/prepare " + name, 0.1);
 
-  // P_even (Sec. 5): farthest-point samples from a random vertex; heat geodesics from them.
   t0 = Clock::now();
-  HeatGeodesics geo(s.mesh.V, s.mesh.F, opt.heat_t_factor);
-  std::uint64_t rs = opt.seed ^ 0x5bd1e995ULL ^ std::uint64_t(n);
-  int first = int(splitmix64(rs) % std::uint64_t(n));
-  const int k = std::min(opt.num_even, n);
-  s.even = farthest_point_sampling_graph(s.mesh.V, s.mesh.F, k, first);
-  s.even_dist = geo.distances(s.even);
-  s.timings.push_back({"sampling_geodesics", seconds_since(t0)});
+  bim_sample_features(s.mesh, opt, landmarks, s.even, s.even_dist, s.agd, s.features);
+  s.timings.push_back({"sampling_geodesics", seconds_since(t0)});  // and the AGD features
   report(progress, "bim/prepare " + name, 0.5);
-
-  // AGD (Sec. 4): each P_even point stands for area 1/k of the unit-area surface.
   t0 = Clock::now();
-  s.agd = s.even_dist.rowwise().mean();
-  if (!landmarks.empty()) {
-    s.features = landmarks;
-  } else {
-    s.features = agd_maxima(s.mesh, s.agd, opt.feature_radius, opt.max_features);
-    // Too few maxima (nearly symmetric blobs): add spread samples (FPS order).
-    for (int v : s.even) {
-      if (int(s.features.size()) >= opt.min_features) break;
-      if (std::find(s.features.begin(), s.features.end(), v) == s.features.end()) s.features.push_back(v);
-    }
-  }
+  const int k = int(s.even.size());
   // Gaussian interpolation weights from P_even to all vertices (Sec. 5).
   const double rho = opt.interpolation_sigma > 0 ? opt.interpolation_sigma : 1.0 / std::sqrt(double(k));
   s.interp = gaussian_interpolation(s.even_dist, rho);

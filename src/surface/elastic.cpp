@@ -14,6 +14,7 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <limits>
 #include <chrono>
 #include <cmath>
 
@@ -111,7 +112,61 @@ struct Side {
   Eigen::MatrixXd target_normals;
   std::vector<unsigned char> fold_prev;
   long long rows_kept = 0;
+  // ElasticOptions::anchors, this side's view: source vertex, target vertex, a target face
+  // with its corner at that vertex (the fixed P row), and the weight of the Y-step term
+  std::vector<int> anchor_src, anchor_dst, anchor_face, anchor_corner;
+  std::vector<char> anchor_on;  // holding (ElasticAnchors::activation)
+  double anchor_weight = 0, anchor_activation = 0;
 };
+
+// Side s's anchors src[k] -> dst[k] onto the target side t (ElasticAnchors).
+void set_anchors(Side& s, const Side& t, const std::vector<int>& src, const std::vector<int>& dst, double weight,
+                 double activation) {
+  if (src.size() != dst.size()) throw InputError("elastic: anchors: the two lists have different lengths");
+  const int n = int(s.X.rows()), nt = int(t.X.rows());
+  std::vector<int> face(nt, -1), corner(nt, -1);
+  for (int f = 0; f < t.F.rows(); ++f)
+    for (int c = 0; c < 3; ++c)
+      if (face[t.F(f, c)] < 0) face[t.F(f, c)] = f, corner[t.F(f, c)] = c;
+  s.anchor_src.clear(), s.anchor_dst.clear(), s.anchor_face.clear(), s.anchor_corner.clear();
+  for (size_t k = 0; k < src.size(); ++k) {
+    if (src[k] < 0 || src[k] >= n || dst[k] < 0 || dst[k] >= nt)
+      throw InputError("elastic: anchor " + std::to_string(k) + " out of range");
+    if (face[dst[k]] < 0) continue;  // a vertex in no face: nothing to fix the row to
+    s.anchor_src.push_back(src[k]);
+    s.anchor_dst.push_back(dst[k]);
+    s.anchor_face.push_back(face[dst[k]]);
+    s.anchor_corner.push_back(corner[dst[k]]);
+  }
+  s.anchor_weight = weight;
+  s.anchor_activation = activation;
+  s.anchor_on.assign(s.anchor_src.size(), activation > 0 ? 0 : 1);
+}
+
+// ElasticAnchors::release_after_ramp: the anchors let go (and are not taken up again); how many
+// held is recorded first.
+void release_anchors(Side& a, Side& b, ElasticResult& res) {
+  for (char on : a.anchor_on) res.anchors_holding_AB += on;
+  for (char on : b.anchor_on) res.anchors_holding_BA += on;
+  res.anchors_released = !a.anchor_on.empty() || !b.anchor_on.empty();
+  for (Side* s : {&a, &b}) {
+    std::fill(s->anchor_on.begin(), s->anchor_on.end(), 0);
+    s->anchor_activation = std::numeric_limits<double>::infinity();
+  }
+}
+
+// ElasticAnchors::activation: an anchor starts holding when the P step's row of its vertex
+// lands farther than the activation distance from its partner (the refinement pulls the pair
+// apart), and holds from then on.
+void activate_anchors(Side& s, const Side& t) {
+  for (size_t k = 0; k < s.anchor_src.size(); ++k) {
+    if (s.anchor_on[k]) continue;
+    const int i = s.anchor_src[k], f = s.P.elem(i);
+    Eigen::RowVector3d x = Eigen::RowVector3d::Zero();
+    for (int c = 0; c < 3; ++c) x += s.P.bary(i, c) * t.X.row(t.F(f, c));
+    if ((x - t.X.row(s.anchor_dst[k])).norm() > s.anchor_activation) s.anchor_on[k] = 1;
+  }
+}
 
 // Mapped triangle f of the source under P is folded: collapsed (area below 1e-6 of its rest
 // area) or flipped (normal against the target's at its corners' images).
@@ -209,6 +264,14 @@ void projection_step(Side& s, const Side& t, double beta, double gamma, bool bij
     s.P.elem(i) = s.proj[i].elem;
     s.P.bary.row(i) = s.proj[i].bary.head<3>().transpose();
   }
+  activate_anchors(s, t);
+  for (size_t k = 0; k < s.anchor_src.size(); ++k) {  // anchored rows stay at their vertex
+    if (!s.anchor_on[k]) continue;
+    const int i = s.anchor_src[k];
+    s.P.elem(i) = s.proj[i].elem = s.anchor_face[k];
+    s.P.bary.row(i).setZero();
+    s.P.bary(i, s.anchor_corner[k]) = 1;
+  }
   sanitize(s.P);
   if (safe) s.rows_kept += keep_rows_that_fold(s, t);
   apply_map(s.P, t.F, t.X, s.PXt);
@@ -242,6 +305,17 @@ class DeformationObjective {
       gr[3 * i] += w * r0;
       gr[3 * i + 1] += w * r1;
       gr[3 * i + 2] += w * r2;
+    }
+    // anchors: weight |Y_a - X~_b|^2 in the same mass norm (ElasticAnchors)
+    for (size_t k = 0; k < s_.anchor_src.size(); ++k) {
+      if (!s_.anchor_on[k]) continue;
+      const int i = s_.anchor_src[k], j = s_.anchor_dst[k];
+      const double mi = s_.anchor_weight * s_.mass(i), w = 2 * beta_ * mi;
+      for (int c = 0; c < 3; ++c) {
+        const double r = y[3 * i + c] - t_.X(j, c);
+        mis += mi * r * r;
+        gr[3 * i + c] += w * r;
+      }
     }
     mis *= beta_;
     double rev = 0;
@@ -309,6 +383,8 @@ void update_preconditioner(Side& s, const Side& t, double beta, double gamma, bo
   if (s.pre.num_vertices() != n)
     s.pre = ElasticPreconditioner(s.X, s.F, opt.precondition_stiffness * s.shell.options().alpha * opt.mu);
   s.pre_diag = 2 * beta * s.mass;  // exact Hessian of the mismatch term (Eq. 3/4)
+  for (size_t k = 0; k < s.anchor_src.size(); ++k)  // ... and of the anchors' term
+    if (s.anchor_on[k]) s.pre_diag(s.anchor_src[k]) += 2 * beta * s.anchor_weight * s.mass(s.anchor_src[k]);
   if (bijective) {  // row sums of 2 gamma Q^T M~ Q = 2 gamma Q^T m~ (rows of Q sum to 1)
     const BarycentricMap& Q = t.P;
     for (int j = 0; j < Q.size(); ++j) {
@@ -679,6 +755,10 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
   a.shell = ShellEnergy(a.X, a.F, so);
   so.alpha = alphaB;
   if (bij) b.shell = ShellEnergy(b.X, b.F, so);
+  if (!opt.anchors.A.empty()) {
+    set_anchors(a, b, opt.anchors.A, opt.anchors.B, opt.anchors.weight, opt.anchors.activation);
+    if (bij) set_anchors(b, a, opt.anchors.B, opt.anchors.A, opt.anchors.weight, opt.anchors.activation);
+  }
   a.P = init_AB;
   sanitize(a.P);
   // Algorithm 1: Y <- P X~, Y~ <- Q X
@@ -716,6 +796,7 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
     const double f_tol = k < opt.inner_f_tol_start_iterations && opt.inner_f_tol_start > 0 ? opt.inner_f_tol_start
                          : k < opt.beta_ramp_iterations && opt.inner_f_tol_ramp > 0 ? opt.inner_f_tol_ramp
                                                                                      : opt.inner_f_tol;
+    if (k == opt.beta_ramp_iterations && opt.anchors.release_after_ramp) release_anchors(a, b, res);
     ElasticIterate it = alternate_once(a, b, beta, gamma, bij, opt, f_tol);
     logA.after_iteration(a, k + 1, opt.keep_no_worse, it.P_folds, it.Y_folds, res.first_P_collapse,
                          res.first_Y_collapse);
@@ -741,6 +822,10 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
   res.degenerate_faces_final =
       count_degenerate(a, opt.degenerate_tol) + (bij ? count_degenerate(b, opt.degenerate_tol) : 0);
   res.projection_rows_kept = a.rows_kept + b.rows_kept;
+  if (!res.anchors_released) {
+    for (char on : a.anchor_on) res.anchors_holding_AB += on;
+    for (char on : b.anchor_on) res.anchors_holding_BA += on;
+  }
   collapse_guard(logA, a, init_AB, B, nb, opt.keep_no_worse, res.outer_iterations, res.guard_AB, res.map_AB, res.Y,
                  res.last_AB);
   if (bij)
@@ -783,7 +868,7 @@ double elastic_energy(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F,
                       const BarycentricMap& P, const BarycentricMap& Q,
                       const Eigen::MatrixXd& Y, const Eigen::MatrixXd& Yt, double beta,
                       double gamma, const ShellEnergyOptions& shell, Eigen::MatrixXd* gY,
-                      Eigen::MatrixXd* gYt, ElasticEnergyTerms* terms) {
+                      Eigen::MatrixXd* gYt, ElasticEnergyTerms* terms, const ElasticAnchors* anchors) {
   const bool bij = Q.size() > 0;
   validate_map(P, int(X.rows()), int(Ft.rows()), 3, "elastic_energy: P");
   if (bij) validate_map(Q, int(Xt.rows()), int(F.rows()), 3, "elastic_energy: Q");
@@ -801,6 +886,10 @@ double elastic_energy(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F,
   b.F = Ft;
   b.mass = lumped_mass(Xt, Ft);
   apply_map(a.P, b.F, b.X, a.PXt);
+  if (anchors && !anchors->A.empty()) {
+    set_anchors(a, b, anchors->A, anchors->B, anchors->weight, 0.0);  // all holding
+    if (bij) set_anchors(b, a, anchors->B, anchors->A, anchors->weight, 0.0);
+  }
   if (bij) {
     b.shell = ShellEnergy(Xt, Ft, shell);
     b.P = Q;

@@ -2,6 +2,7 @@
 #include "shapemap/surface/refine_surface_maps.h"
 
 #include "shapemap/error.h"
+#include "shapemap/timing.h"
 
 #include <algorithm>
 
@@ -64,7 +65,18 @@ SurfaceUntangling untangle_surface_maps(const TriMesh& A, const TriMesh& B, Bary
 SurfaceRefinement refine_surface_maps(const TriMesh& A, const TriMesh& B, const BarycentricMap& init_AB,
                                       const BarycentricMap& init_BA, const SurfaceRefinementOptions& opt) {
   SurfaceRefinement out;
-  out.elastic = elastic_correspondence(A, B, init_AB, init_BA, opt.elastic);
+  ElasticOptions eo = opt.elastic;
+  if (!eo.anchors.A.empty()) {
+    out.anchors.A = eo.anchors.A;
+    out.anchors.B = eo.anchors.B;
+  } else if (opt.feature_anchors && eo.model == ElasticModel::Bijective) {
+    const auto t0 = Clock::now();
+    out.anchors = mutual_feature_anchors(A, B, init_AB, init_BA, opt.anchoring);
+    out.anchor_seconds = seconds_since(t0);
+    eo.anchors.A = out.anchors.A;
+    eo.anchors.B = out.anchors.B;
+  }
+  out.elastic = elastic_correspondence(A, B, init_AB, init_BA, eo);
   ElasticResult& r = out.elastic;
   if (!r.map_AB.bary.allFinite() || !r.Y.allFinite()) throw Error("elastic: non-finite result");
   if (!opt.untangle) return out;

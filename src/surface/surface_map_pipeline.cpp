@@ -409,9 +409,23 @@ void run_elastic(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& re
   eo.progress = progress;
   SurfaceRefinementOptions ro;
   ro.elastic = eo;
-  set_untangle_stages(req.elastic, ro);
+  set_refinement_stages(req.elastic, ro);
+  if (!run.landmarks_A.empty() && req.elastic.feature_anchors && bij) {  // the user's landmarks anchor
+    ro.elastic.anchors.A = run.landmarks_A;
+    ro.elastic.anchors.B = run.landmarks_B;
+  }
   const SurfaceRefinement ref = refine_surface_maps(RA, RB, initAB, initBA, ro);
   const ElasticResult& r = ref.elastic;
+  nlohmann::json anchors_json = {{"enabled", ro.feature_anchors && bij},
+                                 {"source", run.landmarks_A.empty() ? "features" : "landmarks"},
+                                 {"weight", ro.elastic.anchors.weight},
+                                 {"activation", ro.elastic.anchors.activation}, {"count", ref.anchors.A.size()},
+                                 {"holding", {{"AB", ref.elastic.anchors_holding_AB},
+                                              {"BA", ref.elastic.anchors_holding_BA}}},
+                                 {"released_after_ramp", ref.elastic.anchors_released},
+                                 {"A", ref.anchors.A}, {"B", ref.anchors.B}, {"distance", ref.anchors.distance},
+                                 {"features_A", ref.anchors.features_A}, {"features_B", ref.anchors.features_B},
+                                 {"seconds", ref.anchor_seconds}};
   nlohmann::json untangle_json = nlohmann::json{{"enabled", ref.untangled}};
   if (ref.untangled) {
     const SurfaceUntangling& u = ref.untangling;
@@ -439,6 +453,7 @@ void run_elastic(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& re
   run.report["energies"] = elastic_energies_json(r);
   run.report["elastic"] = elastic_section_json(r, eo, bij);
   run.report["elastic"]["untangle"] = untangle_json;
+  run.report["elastic"]["anchors"] = anchors_json;  // stage 0, in the repaired meshes' numbering
   elastic_metrics(RA, RB, initAB, initBA, r, bij, truth, run);
   guard_warnings(r, bij, run);
   run.summary = "elastic: " + std::to_string(r.outer_iterations) + " outer iterations";
@@ -446,11 +461,13 @@ void run_elastic(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& re
 
 }  // namespace
 
-void set_untangle_stages(const ElasticSettings& o, SurfaceRefinementOptions& ro) {
+void set_refinement_stages(const ElasticSettings& o, SurfaceRefinementOptions& ro) {
   ro.untangle = o.untangle;
   ro.wide_untangle = o.wide_untangle;
   ro.sliver_untangle = o.sliver_untangle;
   ro.untangle_passes = o.untangle_passes;
+  ro.feature_anchors = o.feature_anchors;
+  if (o.anchor_tolerance >= 0) ro.anchoring.tolerance = o.anchor_tolerance;
 }
 
 ElasticOptions elastic_options_from_settings(const ElasticSettings& o, const TriMesh& A, const TriMesh& B,
@@ -481,6 +498,9 @@ ElasticOptions elastic_options_from_settings(const ElasticSettings& o, const Tri
   eo.model = bij ? ElasticModel::Bijective : ElasticModel::Injective;
   eo.normalize_area = !o.partial;
   eo.keep_no_worse = !o.keep_worse;
+  if (o.anchor_weight >= 0) eo.anchors.weight = o.anchor_weight;
+  if (o.anchor_activation >= 0) eo.anchors.activation = o.anchor_activation;
+  eo.anchors.release_after_ramp = !o.anchor_hold_to_end;
   if (o.beta_start >= 0) eo.beta_start = std::min(o.beta_start, eo.beta_end);
   if (o.log_eps >= 0) eo.log_eps = o.log_eps;
   eo.keep_orientation = o.keep_orientation;

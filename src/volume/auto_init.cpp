@@ -35,7 +35,7 @@ std::pair<BarycentricMap, BarycentricMap> surface_map_for_volumes(const TriMesh&
   // (Sec. 5.2: BIM maps usually have flipped triangles, so usually the smaller eta).
   const ElasticSettings settings = elastic ? *elastic : ElasticSettings{};
   SurfaceRefinementOptions ro;
-  set_untangle_stages(settings, ro);
+  set_refinement_stages(settings, ro);
   std::string eta_choice;
   try {
     ro.elastic = elastic_options_from_settings(settings, SA, SB, bim.AB.map, bim.BA.map, true, eta_choice);

@@ -96,6 +96,18 @@ TEST(ElasticCli, SymmetricRunWritesOutputsAndEvaluateReportsSec61Metrics) {
   EXPECT_TRUE(r["elastic"]["guard"]["enabled"].get<bool>());
   EXPECT_TRUE(r["elastic"]["untangle"]["enabled"].get<bool>());
   EXPECT_TRUE(r["elastic"]["untangle"]["wide"]["enabled"].get<bool>());
+  // stage 0: feature anchors (surface/feature_anchors.h), vertex pairs of the two meshes
+  const auto& an = r["elastic"]["anchors"];
+  EXPECT_TRUE(an["enabled"].get<bool>());
+  EXPECT_EQ(an["source"].get<std::string>(), "features");
+  EXPECT_EQ(an["count"].get<size_t>(), an["A"].size());
+  EXPECT_EQ(an["A"].size(), an["B"].size());
+  EXPECT_GE(an["features_A"].get<int>(), int(an["A"].size()));
+  for (size_t k = 0; k < an["A"].size(); ++k) {
+    EXPECT_LT(an["A"][k].get<int>(), MA.num_vertices());
+    EXPECT_LT(an["B"][k].get<int>(), MB.num_vertices());
+    EXPECT_LE(an["distance"][k].get<double>(), 0.005);
+  }
   EXPECT_EQ(r["elastic"]["folds_per_iteration"]["P"].size(), 60u);
   EXPECT_EQ(r["elastic"]["folds_per_iteration"]["Yt"].size(), 60u);
   EXPECT_LT(i1["area_distortion_mean_abs"].get<double>(), 1.0);

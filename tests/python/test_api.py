@@ -210,6 +210,30 @@ def test_elastic_untangle_option(surfaces):
                                **FAST_BIM)
     assert one.report["elastic"]["untangle"]["passes"] == 1
     assert 1 <= on.report["elastic"]["untangle"]["passes"] <= 3
+    # elastic_feature_anchors=False: no stage 0 (--elastic-no-feature-anchors)
+    assert one.report["elastic"]["anchors"]["enabled"] is True
+    free = shapemap.surface_map(VA, FA, VB, FB, method="elastic", elastic_iterations=3,
+                                elastic_feature_anchors=False, **FAST_BIM)
+    assert free.report["elastic"]["anchors"]["enabled"] is False
+    assert free.report["elastic"]["anchors"]["count"] == 0
     for d in ("AB", "BA"):
         assert (on.report["elastic"]["untangle"]["slivers"][d]["bad_triangles_after"]
                 <= one.report["elastic"]["untangle"]["slivers"][d]["bad_triangles_after"])
+
+
+def test_elastic_landmarks_are_the_anchors(surfaces, pair):
+    """With landmarks, the elastic refinement's anchors (stage 0) are the landmarks themselves
+    (docs/methods.md, "Feature anchors"); without, the AGD maxima the initial maps pair up."""
+    (VA, FA), (VB, FB) = surfaces
+    truth = shapemap.read_map(pair / "truth_AB.txt", VB, FB).points()
+    LA = np.arange(0, len(VA), len(VA) // 6)[:6]
+    LB = ((truth[LA][:, None, :] - VB[None, :, :]) ** 2).sum(axis=2).argmin(axis=1)
+    m = shapemap.surface_map(VA, FA, VB, FB, method="elastic", landmarks=(LA, LB), elastic_iterations=3,
+                             **FAST_BIM)
+    an = m.report["elastic"]["anchors"]
+    assert an["source"] == "landmarks"
+    assert an["A"] == [int(i) for i in LA] and an["B"] == [int(i) for i in LB]
+    f = shapemap.surface_map(VA, FA, VB, FB, method="elastic", elastic_iterations=3, **FAST_BIM)
+    af = f.report["elastic"]["anchors"]
+    assert af["source"] == "features" and af["count"] == len(af["A"]) == len(af["distance"])
+    assert all(d <= 0.005 for d in af["distance"])

@@ -6,6 +6,7 @@
 #include "shapemap/eval/surface_metrics.h"
 #include "shapemap/generate.h"
 #include "shapemap/geometry/closest_point.h"
+#include "shapemap/geometry/mass.h"
 #include "shapemap/surface/elastic.h"
 #include "shapemap/surface/shell_energy.h"
 
@@ -128,6 +129,29 @@ void fd_check(const std::function<double(const Eigen::MatrixXd&)>& f, const Eige
 }
 
 
+// A point at which to evaluate E (Eq. 4/6): two bumpy spheres (B stretched by `stretch` along
+// x), maps A -> B and B -> A by closest point of slightly moved points, and Y, Y~ their images
+// with Gaussian noise (seed), with a shell stiffer in bending than the defaults.
+struct EnergyPoint {
+  TriMesh A, B;
+  BarycentricMap P, Q;
+  Eigen::MatrixXd Y, Yt;
+  ShellEnergyOptions so;
+  EnergyPoint(double stretch, unsigned seed) : A(bumpy_sphere(6, 8, 0.15, 0.0)), B(bumpy_sphere(7, 9, 0.1, 1.0)) {
+    B.V.col(0) *= stretch;
+    P = project(A.V * 1.05, B);
+    Q = project(B.V * 0.95, A);
+    std::mt19937 rng(seed);
+    std::normal_distribution<double> N(0, 0.05);
+    Y = map_positions(P, B.V, B.F);
+    Yt = map_positions(Q, A.V, A.F);
+    for (int i = 0; i < Y.size(); ++i) Y(i) += N(rng);
+    for (int i = 0; i < Yt.size(); ++i) Yt(i) += N(rng);
+    so.alpha = 2.0;
+    so.eta = 0.5;
+  }
+};
+
 // The refinement from a distorted truth.
 ElasticResult run_from(const DistortedTruth& start, const ElasticOptions& o) {
   return elastic_correspondence(start.pair.A, start.pair.B, start.initAB, start.initBA, o);
@@ -166,19 +190,11 @@ TEST(Elastic, IdentityHasZeroEnergy) {
 }
 
 TEST(Elastic, GradientsOfInjectiveAndBijectiveEnergies) {
-  TriMesh A = bumpy_sphere(6, 8, 0.15, 0.0);
-  TriMesh B = bumpy_sphere(7, 9, 0.1, 1.0);
-  B.V.col(0) *= 1.3;
-  // some maps: A -> B and B -> A by closest point of slightly moved points
-  BarycentricMap P = project(A.V * 1.05, B), Q = project(B.V * 0.95, A);
-  std::mt19937 rng(7);
-  std::normal_distribution<double> N(0, 0.05);
-  Eigen::MatrixXd Y = map_positions(P, B.V, B.F), Yt = map_positions(Q, A.V, A.F);
-  for (int i = 0; i < Y.size(); ++i) Y(i) += N(rng);
-  for (int i = 0; i < Yt.size(); ++i) Yt(i) += N(rng);
-  ShellEnergyOptions so;
-  so.alpha = 2.0;
-  so.eta = 0.5;
+  const EnergyPoint e(1.3, 7);
+  const TriMesh &A = e.A, &B = e.B;
+  const BarycentricMap &P = e.P, &Q = e.Q;
+  const Eigen::MatrixXd &Y = e.Y, &Yt = e.Yt;
+  const ShellEnergyOptions& so = e.so;
   const double beta = 3.0, gamma = 5.0;
   Eigen::MatrixXd gY, gYt;
   // bijective (Eq. 6)
@@ -194,6 +210,95 @@ TEST(Elastic, GradientsOfInjectiveAndBijectiveEnergies) {
   EXPECT_EQ(t.reversibility, 0.0);
   fd_check([&](const Eigen::MatrixXd& Z) {
     return elastic_energy(A.V, A.F, B.V, B.F, P, none, Z, Yt, beta, gamma, so); }, Y, gY, 1e-5);
+}
+
+// The anchors' term (ElasticAnchors): its gradient against finite differences, and its value
+// against the formula weight * beta * sum m_a |Y_a - X~_b|^2 (+ the reverse side's).
+TEST(Elastic, AnchorTermGradientAndValue) {
+  const EnergyPoint e(1.0, 11);
+  const TriMesh &A = e.A, &B = e.B;
+  const BarycentricMap &P = e.P, &Q = e.Q;
+  const Eigen::MatrixXd &Y = e.Y, &Yt = e.Yt;
+  const ShellEnergyOptions& so = e.so;
+  const double beta = 3.0, gamma = 5.0;
+  ElasticAnchors an;
+  an.A = {0, 5, 17};
+  an.B = {3, 9, 20};
+  an.weight = 7.0;
+  Eigen::MatrixXd gY, gYt;
+  ElasticEnergyTerms plain, anchored;
+  elastic_energy(A.V, A.F, B.V, B.F, P, Q, Y, Yt, beta, gamma, so, nullptr, nullptr, &plain);
+  elastic_energy(A.V, A.F, B.V, B.F, P, Q, Y, Yt, beta, gamma, so, &gY, &gYt, &anchored, &an);
+  const Eigen::VectorXd mA = lumped_mass(A.V, A.F), mB = lumped_mass(B.V, B.F);
+  double expected = 0;
+  for (int k = 0; k < 3; ++k)
+    expected += an.weight * beta * (mA(an.A[k]) * (Y.row(an.A[k]) - B.V.row(an.B[k])).squaredNorm() +
+                                    mB(an.B[k]) * (Yt.row(an.B[k]) - A.V.row(an.A[k])).squaredNorm());
+  EXPECT_NEAR(anchored.mismatch - plain.mismatch, expected, 1e-10 * (1 + expected));
+  EXPECT_NEAR(anchored.deformation, plain.deformation, 1e-12);
+  fd_check([&](const Eigen::MatrixXd& Z) {
+    return elastic_energy(A.V, A.F, B.V, B.F, P, Q, Z, Yt, beta, gamma, so, nullptr, nullptr, nullptr, &an); },
+    Y, gY, 1e-5);
+  fd_check([&](const Eigen::MatrixXd& Z) {
+    return elastic_energy(A.V, A.F, B.V, B.F, P, Q, Y, Z, beta, gamma, so, nullptr, nullptr, nullptr, &an); },
+    Yt, gYt, 1e-5);
+  an.B = {3, 9, int(B.V.rows())};  // out of range
+  EXPECT_THROW(elastic_energy(A.V, A.F, B.V, B.F, P, Q, Y, Yt, beta, gamma, so, nullptr, nullptr, nullptr, &an),
+               InputError);
+}
+
+// Algorithm 1 with anchors (each a vertex of A and the vertex of B nearest to its image, as
+// feature anchors are): the anchored rows of P and Q end exactly at their partners (the P step
+// fixes them), and mismatched anchor lists are refused.
+TEST(Elastic, AnchoredRowsEndAtTheirPartners) {
+  TriMesh A = bumpy_sphere(8, 12, 0.1, 0.0);
+  TriMesh B = bumpy_sphere(9, 11, 0.12, 1.0);
+  const BarycentricMap P = project(A.V, B), Q = project(B.V, A);
+  ElasticOptions o;
+  o.max_outer_iterations = 4;
+  o.keep_no_worse = false;  // the last iterate, whatever its folds
+  const Eigen::MatrixXd PA0 = map_positions(P, B.V, B.F);
+  for (int a : {2, 40}) {
+    Eigen::Index b;
+    (B.V.rowwise() - PA0.row(a)).rowwise().squaredNorm().minCoeff(&b);
+    o.anchors.A.push_back(a);
+    o.anchors.B.push_back(int(b));
+  }
+  o.anchors.activation = 0;  // holding from the start
+  const ElasticResult r = elastic_correspondence(A, B, P, Q, o);
+  const Eigen::MatrixXd PA = map_positions(r.map_AB, B.V, B.F), QB = map_positions(r.map_BA, A.V, A.F);
+  for (int k = 0; k < 2; ++k) {
+    EXPECT_LT((PA.row(o.anchors.A[k]) - B.V.row(o.anchors.B[k])).norm(), 1e-12);
+    EXPECT_LT((QB.row(o.anchors.B[k]) - A.V.row(o.anchors.A[k])).norm(), 1e-12);
+  }
+  EXPECT_EQ(r.anchors_holding_AB, 2);
+  EXPECT_EQ(r.anchors_holding_BA, 2);
+  // With an activation distance, an anchor that does not hold has its image within that
+  // distance of its partner (unit-area frames) and one that holds has it exactly there.
+  o.anchors.activation = 0.01;
+  const ElasticResult s = elastic_correspondence(A, B, P, Q, o);
+  const Eigen::MatrixXd SA = map_positions(s.map_AB, B.V, B.F), SB = map_positions(s.map_BA, A.V, A.F);
+  const double ka = unit_area_normalization(A).scale, kb = unit_area_normalization(B).scale;
+  int within = 0;
+  for (int k = 0; k < 2; ++k) {
+    const double dab = (SA.row(o.anchors.A[k]) - B.V.row(o.anchors.B[k])).norm() * kb;
+    const double dba = (SB.row(o.anchors.B[k]) - A.V.row(o.anchors.A[k])).norm() * ka;
+    EXPECT_TRUE(dab < 1e-12 || dab <= 0.01) << dab;
+    EXPECT_TRUE(dba < 1e-12 || dba <= 0.01) << dba;
+    within += dab < 1e-12;
+  }
+  EXPECT_GE(within, s.anchors_holding_AB);
+  EXPECT_FALSE(s.anchors_released);  // 4 outer iterations, all within the ramp
+  // release_after_ramp: once beta has reached beta_end the anchors let go; the count of those
+  // that held is kept.
+  o.anchors.activation = 0;
+  o.beta_ramp_iterations = 2;
+  const ElasticResult u = elastic_correspondence(A, B, P, Q, o);
+  EXPECT_TRUE(u.anchors_released);
+  EXPECT_EQ(u.anchors_holding_AB, 2);
+  EXPECT_EQ(u.anchors_holding_BA, 2);
+  o.anchors.B.pop_back();
+  EXPECT_THROW(elastic_correspondence(A, B, P, Q, o), InputError);
 }
 
 TEST(Elastic, RejectsMismatchedMaps) {

@@ -88,6 +88,13 @@ struct BIMSurface {
   std::vector<std::pair<std::string, double>> timings;
 };
 
+// The first steps of bim_prepare on a mesh in its unit-area frame: P_even (Sec. 5, FPS with
+// options.seed), heat geodesics from it, the AGD (Sec. 4) and the feature points (its maxima,
+// at least options.min_features; or `landmarks` when non-empty). No input checks.
+void bim_sample_features(const TriMesh& mesh, const BIMOptions& options, const std::vector<int>& landmarks,
+                         std::vector<int>& even, Eigen::MatrixXd& even_dist, Eigen::VectorXd& agd,
+                         std::vector<int>& features);
+
 // Throws InputError("<name>: <problem>") for invalid input (see require_genus0_surface).
 // If landmarks is non-empty, they are the feature points.
 BIMSurface bim_prepare(const TriMesh& mesh, const std::string& name, const BIMOptions& options,

@@ -24,6 +24,24 @@
 
 namespace shapemap {
 
+// Anchored vertex pairs (ours, issue 20; feature_anchors.h finds them): A[k] <-> B[k]. The P
+// step fixes P's row A[k] at vertex B[k] (and Q's row B[k] at A[k]), and the Y step adds
+//   weight * beta * sum_k m_A[k] |Y_A[k] - X~_B[k]|^2  (+ the same for Y~ with m~, X)
+// to the mismatch term of Eq. 4/6: with weight 0 the fixed rows alone pull as one vertex of
+// the mismatch term does. An anchor holds (row fixed, term on) only from the first P step that
+// puts its vertex farther than `activation` from its partner (unit-area frames; per direction):
+// where the refinement keeps the pair together (near-isometric pairs) it changes nothing.
+// Empty = none (the paper's Algorithm 1).
+struct ElasticAnchors {
+  std::vector<int> A, B;
+  double weight = 10;
+  double activation = 0.01;  // 0 = holding from the start
+  // Let go once beta has reached beta_end (outer iteration beta_ramp_iterations): the tips are
+  // placed while the map moves far (the ramp), and the last iterations relax the patch
+  // around each held vertex, where a held row can leave a fold (docs/methods.md).
+  bool release_after_ramp = true;
+};
+
 enum class ElasticModel {
   Injective,  // E_inj, Eq. 4 (near-isometric and partial matching)
   Bijective,  // E_bij, Eq. 6 (non-isometric; reversibility terms)
@@ -119,6 +137,7 @@ struct ElasticOptions {
   // than the start, else the latest iterate that has no more, else the initial map
   // (ElasticResult::guard_AB/BA say which). false = always the last iterate.
   bool keep_no_worse = true;
+  ElasticAnchors anchors;         // none by default (refine_surface_maps.h finds feature anchors)
   ProgressCallback progress;      // stage "elastic", fraction of max_outer_iterations
 
   // Presets of Sec. 5.2 / 6.1: eta = 0.01 (near-isometric, FAUST intra-class),
@@ -181,6 +200,9 @@ struct ElasticResult {
   ElasticGuard guard_AB, guard_BA;   // which iterate each direction returns, and why
   BarycentricMap last_AB, last_BA;   // the last iterate, kept only when the guard returned another
   long long projection_rows_kept = 0;  // rows the safe projection kept at their previous value
+  // ElasticAnchors that held by the end of the ramp (release_after_ramp) or of the run
+  int anchors_holding_AB = 0, anchors_holding_BA = 0;
+  bool anchors_released = false;  // they let go after the ramp
   // First collapses, per direction (AB: P and Y; BA: Q and Y~).
   ElasticCollapseEvent first_P_collapse, first_Y_collapse, first_Q_collapse, first_Yt_collapse;
 };
@@ -197,7 +219,8 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
 // Y~ steps of Algorithm 1 evaluate it, in the frames given (no normalization):
 // X n×3, F m×3 (source S); Xt n~×3, Ft (target S~); P: n rows onto Ft; Q: n~ rows onto F
 // (or empty); Y n×3, Yt n~×3 (ignored when Q is empty). gY, gYt (may be null) receive
-// dE/dY (n×3) and dE/dY~ (n~×3). shell: alpha, eta, ... of W_def (both shells).
+// dE/dY (n×3) and dE/dY~ (n~×3). shell: alpha, eta, ... of W_def (both shells). anchors (may
+// be null): their term is added to the mismatch (P and Q are taken as given).
 struct ElasticEnergyTerms {
   double total = 0, deformation = 0, mismatch = 0, reversibility = 0;
 };
@@ -210,7 +233,8 @@ double elastic_energy(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F,
                       const BarycentricMap& P, const BarycentricMap& Q,
                       const Eigen::MatrixXd& Y, const Eigen::MatrixXd& Yt, double beta,
                       double gamma, const ShellEnergyOptions& shell, Eigen::MatrixXd* gY = nullptr,
-                      Eigen::MatrixXd* gYt = nullptr, ElasticEnergyTerms* terms = nullptr);
+                      Eigen::MatrixXd* gYt = nullptr, ElasticEnergyTerms* terms = nullptr,
+                      const ElasticAnchors* anchors = nullptr);
 
 // The bending weight eta for given initial maps (Sec. 5.2, "eta"): "if flipped, or nearly
 // degenerate, triangles appear in the initial map, eta should have a smaller value, to allow

@@ -2,6 +2,9 @@
 // surface-map command's elastic method (surface_map_pipeline.h), the Python module through it,
 // and the automatic initialization of volume maps (volume/symmetric_map.h,
 // surface_map_for_volumes):
+//   0. feature anchors (feature_anchors.h): the AGD maxima that the initial maps send onto
+//      each other are held together through stage 1 (ElasticOptions::anchors), unless anchors
+//      are given;
 //   1. Algorithm 1 of elastic-correspondence.txt with its collapse guard (elastic.h,
 //      ElasticOptions::keep_no_worse);
 //   2. the untangling of the returned maps on their targets (untangle.h) over local regions:
@@ -19,11 +22,15 @@
 #include "shapemap/maps.h"
 #include "shapemap/mesh.h"
 #include "shapemap/surface/elastic.h"
+#include "shapemap/surface/feature_anchors.h"
 #include "shapemap/surface/untangle.h"
 
 namespace shapemap {
 
 struct SurfaceRefinementOptions {
+  // stage 0 (bijective model, elastic.anchors empty; --elastic-no-feature-anchors turns it off)
+  bool feature_anchors = true;
+  FeatureAnchorOptions anchoring;
   ElasticOptions elastic;       // stage 1 (progress goes through elastic.progress)
   bool untangle = true;         // stages 2 to 4 (--elastic-no-untangle turns them off)
   UntangleOptions untangling;   // stage 2
@@ -51,6 +58,8 @@ struct SurfaceUntangling {
 };
 
 struct SurfaceRefinement {
+  FeatureAnchors anchors;  // stage 0's pairs (or the anchors given), empty when none
+  double anchor_seconds = 0;
   // elastic.map_AB / map_BA: the returned maps, untangled when `untangled`; the rest of
   // `elastic` (history, guard, timings) is the refinement's.
   ElasticResult elastic;

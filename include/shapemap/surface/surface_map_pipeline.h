@@ -47,11 +47,19 @@ struct ElasticSettings {
   bool wide_untangle = true;
   bool sliver_untangle = true;  // stage 4 of refine_surface_maps.h (--elastic-no-sliver-untangle)
   int untangle_passes = 3;      // stages 2-4 repeated while folds fall (--elastic-untangle-passes)
+  // Stage 0 of refine_surface_maps.h: feature anchors (feature_anchors.h; the landmarks when
+  // the initial maps come from landmarks). --elastic-no-feature-anchors, --elastic-anchor-weight.
+  bool feature_anchors = true;
+  double anchor_weight = -1;    // ElasticAnchors::weight (default 10)
+  double anchor_tolerance = -1; // FeatureAnchorOptions::tolerance (--elastic-anchor-tolerance)
+  double anchor_activation = -1;  // ElasticAnchors::activation (--elastic-anchor-activation)
+  bool anchor_hold_to_end = false;  // !ElasticAnchors::release_after_ramp (--elastic-anchors-hold-to-end)
 };
 
-// The untangling stages of `o` (refine_surface_maps.h, stages 2 to 4) set in `ro`. Shared by
-// the surface-map command and volume-map's automatic initialization.
-void set_untangle_stages(const ElasticSettings& o, SurfaceRefinementOptions& ro);
+// The stages around the refinement in `o` (refine_surface_maps.h: stage 0, the anchors, and
+// stages 2 to 4, the untangling) set in `ro`. Shared by the surface-map command and
+// volume-map's automatic initialization.
+void set_refinement_stages(const ElasticSettings& o, SurfaceRefinementOptions& ro);
 
 // The elastic refinement's options for `o` (the preset's bending weight, or with preset "auto"
 // Sec. 5.2's rule on the initial maps: bending_weight_for_initial_maps; Q counts only when
