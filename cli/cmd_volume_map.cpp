@@ -82,8 +82,8 @@ std::string choose_init(const VolumeMapArgs& a) {
   if (init == "surface-map" && a.surface_map.size() != 2)
     throw InputError("--init surface-map: needs --surface-map MAP_AB MAP_BA");
   // Inputs of another initialization are an error, not silently ignored.
-  if (!a.landmarks.empty() && init != "landmarks")
-    throw InputError(init_name + ": --landmarks is only used by --init landmarks");
+  if (!a.landmarks.empty() && init != "landmarks" && init != "auto")
+    throw InputError(init_name + ": --landmarks is only used by --init landmarks and auto");
   if ((!a.surface_map.empty() || !a.surface_map_meshes.empty()) && init != "surface-map")
     throw InputError(init_name + ": --surface-map/--surface-map-meshes are only used by --init surface-map");
   return init;
@@ -127,7 +127,7 @@ int run_volume_map_command(VolumeMapArgs& a, const GlobalOptions& g) {
   timer.start("load");
   VolumeInput inA = load_volume_input(a.A, a.tets, progress, g);
   VolumeInput inB = load_volume_input(a.B, a.tets, progress, g);
-  if (req.init == "landmarks") {
+  if (req.init == "landmarks" || (req.init == "auto" && !a.landmarks.empty())) {
     req.landmarks_A = volume_landmarks(a.landmarks[0], inA);
     req.landmarks_B = volume_landmarks(a.landmarks[1], inB);
   }
@@ -194,7 +194,8 @@ void add_initialization_options(CLI::App* app, VolumeMapArgs& a) {
                                        "landmarks, surface-map (default: landmarks if given, "
                                        "else surface-map if given, else auto)")
       ->check(CLI::IsMember({"auto", "ball", "landmarks", "surface-map"}));
-  app->add_option("--landmarks", a.landmarks, "Landmark files LA LB (vertex index or x y z per line)")
+  app->add_option("--landmarks", a.landmarks, "Landmark files LA LB (vertex index or x y z per line): --init landmarks starts from them; with --init auto they "
+                  "guide the surface map (BIM over their triplets, anchors of the elastic refinement)")
       ->expected(2);
   app->add_option("--surface-map", a.surface_map,
                     "Surface map files MAP_AB MAP_BA between the boundary surfaces (or the input surfaces)")

@@ -21,15 +21,25 @@ std::pair<BarycentricMap, BarycentricMap> surface_map_for_volumes(const TriMesh&
                                                                   const ProgressCallback& progress,
                                                                   std::string* used,
                                                                   bool elastic_refinement,
-                                                                  const ElasticSettings* elastic) {
+                                                                  const ElasticSettings* elastic,
+                                                                  const std::vector<int>& landmarks_A,
+                                                                  const std::vector<int>& landmarks_B) {
   BIMOptions bo;
   bo.symmetric = true;
   // Each direction's own blend, as measured for the volume maps (BIMOptions::reverse_candidates,
   // the surface-map default since 3 Dec 2026, has not been measured on the volume benches).
   bo.reverse_candidates = false;
-  BIMResult bim = blended_intrinsic_maps(SA, SB, bo, progress);
-  std::pair<BarycentricMap, BarycentricMap> maps{bim.AB.map, bim.BA.map};
-  if (used) *used = "BIM";
+  std::pair<BarycentricMap, BarycentricMap> maps;
+  const bool landmarks = !landmarks_A.empty();
+  if (landmarks) {  // the user's correspondences: BIM over their triplets, as surface-map does
+    landmark_initial_maps(SA, SB, landmarks_A, landmarks_B, maps.first, maps.second, &bo);
+    if (used) *used = "BIM over landmark triplets";
+  } else {
+    BIMResult bim = blended_intrinsic_maps(SA, SB, bo, progress);
+    maps = {bim.AB.map, bim.BA.map};
+    if (used) *used = "BIM";
+  }
+  const BarycentricMap initAB = maps.first, initBA = maps.second;
   if (!elastic_refinement) return maps;
   // The surface-map command's elastic defaults unless given, its bending weight rule included
   // (Sec. 5.2: BIM maps usually have flipped triangles, so usually the smaller eta).
@@ -38,15 +48,21 @@ std::pair<BarycentricMap, BarycentricMap> surface_map_for_volumes(const TriMesh&
   set_refinement_stages(settings, ro);
   std::string eta_choice;
   try {
-    ro.elastic = elastic_options_from_settings(settings, SA, SB, bim.AB.map, bim.BA.map, true, eta_choice);
+    ro.elastic = elastic_options_from_settings(settings, SA, SB, initAB, initBA, true, eta_choice);
     ro.elastic.progress = progress;
-    const SurfaceRefinement ref = refine_surface_maps(SA, SB, bim.AB.map, bim.BA.map, ro);
+    if (landmarks && ro.feature_anchors) {  // the landmarks are the anchors (stage 0)
+      ro.elastic.anchors.A = landmarks_A;
+      ro.elastic.anchors.B = landmarks_B;
+    }
+    const SurfaceRefinement ref = refine_surface_maps(SA, SB, initAB, initBA, ro);
     const ElasticResult& el = ref.elastic;
     if (el.map_AB.size() == SA.num_vertices() && el.map_BA.size() == SB.num_vertices()) {
       maps = {el.map_AB, el.map_BA};
       if (used) {
         std::ostringstream s;
-        s << "BIM + elastic (eta " << ro.elastic.eta << ", " << eta_choice << ")";
+        s << (landmarks ? "BIM over landmark triplets" : "BIM") << " + elastic (eta " << ro.elastic.eta << ", "
+          << eta_choice << ")";
+        if (landmarks && ro.feature_anchors) s << ", " << landmarks_A.size() << " landmarks as anchors";
         if (ref.untangled)
           s << " + untangle (flipped + collapsed A->B " << ref.untangling.AB.before.bad() << " -> "
             << ref.untangling.final_AB.bad() << ", B->A " << ref.untangling.BA.before.bad() << " -> "
@@ -56,7 +72,7 @@ std::pair<BarycentricMap, BarycentricMap> surface_map_for_volumes(const TriMesh&
     }
   } catch (const Error&) {
     // Elastic refinement failed internally: keep the BIM maps (reported through `used`).
-    if (used) *used = "BIM (elastic refinement failed)";
+    if (used) *used = std::string(landmarks ? "BIM over landmark triplets" : "BIM") + " (elastic refinement failed)";
   }
   return maps;
 }

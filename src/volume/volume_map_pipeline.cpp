@@ -174,6 +174,18 @@ TriMesh pick_surface(const VolumeInput& in, const TetBoundary& bd, int n, const 
                    std::to_string(bd.surface.num_vertices()) + " vertices");
 }
 
+// For each of `rows` of V, the vertex of S nearest to it (landmarks carried from a tet mesh to
+// its boundary surface, which the repairs may have renumbered).
+std::vector<int> nearest_surface_vertices(const TriMesh& S, const Eigen::MatrixXd& V, const std::vector<int>& rows) {
+  std::vector<int> out;
+  for (int r : rows) {
+    int best = 0;
+    (S.V.rowwise() - V.row(r)).rowwise().squaredNorm().minCoeff(&best);
+    out.push_back(best);
+  }
+  return out;
+}
+
 void surface_init(VolumeInput& inA, VolumeInput& inB, const VolumeMapRequest& req, const ProgressCallback& progress,
                   VolumeMapRun& run, BarycentricMap& i12, BarycentricMap& i21) {
   const TetBoundary bA = boundary_surface(inA.mesh), bB = boundary_surface(inB.mesh);
@@ -204,8 +216,18 @@ void surface_init(VolumeInput& inA, VolumeInput& inB, const VolumeMapRequest& re
     // a non-manifold boundary); A's boundary vertices are located on SA by closest point.
     if (!inA.from_surface) SA = repaired_genus0(SA, inA.name + " (boundary)", req.strict, inA.repairs);
     if (!inB.from_surface) SB = repaired_genus0(SB, inB.name + " (boundary)", req.strict, inB.repairs);
+    // The user's landmarks (tet mesh vertices, on the boundary) guide the surface map: each
+    // becomes the vertex of the (repaired) boundary surface at its position.
+    std::vector<int> LA = req.landmarks_A, LB = req.landmarks_B;
+    if (!LA.empty() || !LB.empty()) {
+      for (const std::string& n : tidy_landmark_pairs(LA, LB, inA.name, inB.name)) run.notes.push_back(n);
+      if (LA.size() < 3) throw InputError(inA.name + ": --init auto with landmarks needs at least 3");
+      LA = nearest_surface_vertices(SA, inA.mesh.V, LA);
+      LB = nearest_surface_vertices(SB, inB.mesh.V, LB);
+    }
     std::string used;
-    std::tie(sAB, sBA) = surface_map_for_volumes(SA, SB, progress, &used, req.auto_surface == "elastic");
+    std::tie(sAB, sBA) =
+        surface_map_for_volumes(SA, SB, progress, &used, req.auto_surface == "elastic", nullptr, LA, LB);
     run.init_detail = "auto (" + used + ")";
   }
   i12 = surface_initial_map(inA.mesh, inB.mesh, SA, SB, sAB);

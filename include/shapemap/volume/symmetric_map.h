@@ -222,14 +222,19 @@ BarycentricMap surface_initial_map(const TetMesh& A, const TetMesh& B, const Tri
 // `surface-map --method elastic` runs it: surface/refine_surface_maps.h, refinement, collapse
 // guard and untangling). Returns {map_AB, map_BA} (vertex -> face + barycentric). `used`
 // receives a short description of the method. elastic: the elastic settings (null: the
-// surface-map command's defaults). (elastic_refinement, elastic: added, backward compatible.)
+// surface-map command's defaults). landmarks_A/B (vertices of SA / SB, k >= 3 pairs, or
+// none): the initial maps are BIM over landmark triplets and the landmarks anchor the
+// elastic refinement, as `surface-map --method elastic --landmarks` does. (elastic_refinement,
+// elastic, landmarks: added, backward compatible.)
 struct ElasticSettings;
 std::pair<BarycentricMap, BarycentricMap> surface_map_for_volumes(const TriMesh& SA,
                                                                   const TriMesh& SB,
                                                                   const ProgressCallback& progress = {},
                                                                   std::string* used = nullptr,
                                                                   bool elastic_refinement = true,
-                                                                  const ElasticSettings* elastic = nullptr);
+                                                                  const ElasticSettings* elastic = nullptr,
+                                                                  const std::vector<int>& landmarks_A = {},
+                                                                  const std::vector<int>& landmarks_B = {});
 
 // Locates positions X (k×3) in the tet mesh M: a containing tet (or the closest one);
 // rows listed in `boundary_rows` are instead snapped to the closest point of M's
