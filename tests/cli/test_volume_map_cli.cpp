@@ -45,6 +45,15 @@ struct Files {
   ~Files() { fs::remove_all(dir); }
   std::string p(const std::string& f) const { return (dir / f).string(); }
 };
+// Mean distance of A's images X to the truth of the bent box, (x, y + 0.2 x^2, z).
+double bent_box_error(const TetMesh& A, const Eigen::MatrixXd& X) {
+  double err = 0;
+  for (int i = 0; i < A.num_vertices(); ++i) {
+    const Eigen::RowVector3d t(A.V(i, 0), A.V(i, 1) + 0.2 * A.V(i, 0) * A.V(i, 0), A.V(i, 2));
+    err += (X.row(i) - t).norm() / A.num_vertices();
+  }
+  return err;
+}
 }  // namespace
 
 TEST(VolumeMapCli, LandmarkRunWritesAllOutputsAndEvaluates) {
@@ -99,11 +108,7 @@ TEST(VolumeMapCli, BallInitRecoversTheBend) {
   validate_map(m, A.num_vertices(), B.num_tets(), 4, "map_AB");
   validate_map(read_map(f.p("ball/map_BA.txt")), B.num_vertices(), A.num_tets(), 4, "map_BA");
   const Eigen::MatrixXd X = map_positions(m, B.V, B.T);
-  double err = 0;
-  for (int i = 0; i < A.num_vertices(); ++i) {
-    const Eigen::RowVector3d t(A.V(i, 0), A.V(i, 1) + 0.2 * A.V(i, 0) * A.V(i, 0), A.V(i, 2));
-    err += (X.row(i) - t).norm() / A.num_vertices();
-  }
+  const double err = bent_box_error(A, X);
   std::printf("--init ball on the bent box: mean error %.4f\n", err);
   EXPECT_LT(err, 0.03);
   std::ifstream rep(f.p("ball/report.json"));
@@ -122,11 +127,7 @@ TEST(VolumeMapCli, AutoInitUsesTheLandmarks) {
             0);
   const TetMesh A = read_volume(f.p("A.mesh")), B = read_volume(f.p("B.vtk"));
   const Eigen::MatrixXd X = map_positions(read_map(f.p("auto/map_AB.txt")), B.V, B.T);
-  double err = 0;
-  for (int i = 0; i < A.num_vertices(); ++i) {
-    const Eigen::RowVector3d t(A.V(i, 0), A.V(i, 1) + 0.2 * A.V(i, 0) * A.V(i, 0), A.V(i, 2));
-    err += (X.row(i) - t).norm() / A.num_vertices();
-  }
+  const double err = bent_box_error(A, X);
   std::printf("--init auto with the 8 corner landmarks on the bent box: mean error %.4f\n", err);
   EXPECT_LT(err, 0.025);
   std::ifstream rep(f.p("auto/report.json"));
