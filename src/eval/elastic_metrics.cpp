@@ -118,6 +118,10 @@ FoldCounts fold_counts(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F, const
     }
     return Nt.row(best).transpose();
   };
+  // The elastic loop counts folds 4 times per outer iteration: in parallel from the size on
+  // which the shell energy is (integer counts, so the result does not depend on it).
+  int flipped = 0, degenerate = 0;
+#pragma omp parallel for schedule(static) reduction(+ : flipped, degenerate) if (m >= (1 << 14))
   for (int f = 0; f < m; ++f) {
     const Eigen::Vector3d x0 = X.row(F(f, 0)), y0 = Y.row(F(f, 0)), y1 = Y.row(F(f, 1)),
                           y2 = Y.row(F(f, 2));
@@ -133,17 +137,19 @@ FoldCounts fold_counts(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F, const
                            : degenerate_tol > 0 && r < 0.5 * degenerate_tol ? true
                                                                            : !(std::log(r) > log_tol);
     if (collapsed) {
-      ++c.degenerate;
+      ++degenerate;
       if (faces) (*faces)[f] = 2;
       continue;
     }
     Eigen::Vector3d nt = Eigen::Vector3d::Zero();
     for (int j = 0; j < 3; ++j) nt += best_normal(n, F(f, j));
     if (n.dot(nt) < 0) {
-      ++c.flipped;
+      ++flipped;
       if (faces) (*faces)[f] = 1;
     }
   }
+  c.flipped = flipped;
+  c.degenerate = degenerate;
   return c;
 }
 

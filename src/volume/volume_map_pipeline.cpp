@@ -37,6 +37,13 @@ void check_volume_input(VolumeInput& in) {
                        std::to_string(rep.num_elements));
 }
 
+// The row of P nearest to x (the first of equals): a landmark's position snapped to a vertex.
+int nearest_row(const Eigen::MatrixXd& P, const Eigen::RowVector3d& x) {
+  int best = 0;
+  (P.rowwise() - x).rowwise().squaredNorm().minCoeff(&best);
+  return best;
+}
+
 }  // namespace
 
 VolumeInput volume_input_from_tets(TetMesh mesh, const std::string& name) {
@@ -73,17 +80,13 @@ VolumeInput volume_input_from_surface(const TriMesh& given, const std::string& n
 std::vector<int> carry_landmarks_to_volume(const VolumeInput& in, const std::vector<int>& landmarks) {
   if (!in.from_surface) return landmarks;
   const TetBoundary bd = boundary_surface(in.mesh);
+  const Eigen::MatrixXd boundary_positions = in.mesh.V(bd.to_volume, Eigen::all);
   std::vector<int> out;
   for (int l : landmarks) {
     if (l < 0 || l >= in.given.num_vertices())
       throw InputError(in.name + ": landmark " + std::to_string(l) + " is not a vertex of the surface");
-    const Eigen::RowVector3d x = in.given.V.row(l);
-    int best = bd.to_volume(0);
-    for (int k = 0; k < bd.to_volume.size(); ++k) {
-      const int v = bd.to_volume(k);
-      if ((in.mesh.V.row(v) - x).squaredNorm() < (in.mesh.V.row(best) - x).squaredNorm()) best = v;
-    }
-    out.push_back(best);  // two landmarks on one tet vertex: repeats (tidy_landmark_pairs)
+    // two landmarks on one tet vertex: repeats (tidy_landmark_pairs)
+    out.push_back(bd.to_volume(nearest_row(boundary_positions, in.given.V.row(l))));
   }
   return out;
 }
@@ -178,11 +181,7 @@ TriMesh pick_surface(const VolumeInput& in, const TetBoundary& bd, int n, const 
 // its boundary surface, which the repairs may have renumbered).
 std::vector<int> nearest_surface_vertices(const TriMesh& S, const Eigen::MatrixXd& V, const std::vector<int>& rows) {
   std::vector<int> out;
-  for (int r : rows) {
-    int best = 0;
-    (S.V.rowwise() - V.row(r)).rowwise().squaredNorm().minCoeff(&best);
-    out.push_back(best);
-  }
+  for (int r : rows) out.push_back(nearest_row(S.V, V.row(r)));
   return out;
 }
 
