@@ -26,9 +26,9 @@ using RowMat3 = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
 
 // Loops of Algorithm 1 over vertices run in parallel only from this size on: on the shared
 // 2-core machine a parallel region inside the alternating loop cost more than it saved for
-// 5k-vertex meshes (threads waiting for a descheduled partner), and saves a third at 10k
-// vertices on an idle one (docs/methods.md, "Speed"). Results do not depend on it (each row
-// is independent).
+// 5k-vertex meshes (threads waiting for a descheduled partner); at 10k vertices on an idle
+// one the parallel projections save ~9% of the run (docs/methods.md, "Speed"). Results do
+// not depend on it (each row is independent).
 constexpr int kParallelMinRows = 1 << 13;
 
 // Total area, summed in face order (the unit-area scale of Sec. 5.2).

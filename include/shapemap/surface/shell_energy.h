@@ -31,10 +31,10 @@ struct ShellEnergyOptions {
   // Evaluate with OpenMP only from this many faces on (not from the paper). One evaluation
   // of a 5k-vertex mesh takes ~0.8 ms on one core; on the shared 2-core machine a parallel
   // region per evaluation made it 10-25x slower (threads wait for a descheduled partner),
-  // so meshes up to ~8k vertices run serially; from 16,384 faces (10k-vertex pairs) the two
-  // cores halve the evaluation when the machine is otherwise idle (docs/methods.md, "Speed").
+  // so mid-size meshes run serially; even on an idle machine the parallel path was slower at
+  // 8.5k faces (1,423 against 1,146 us, 5 Dec 2026) and no faster at 10k vertices a side.
   // Results are bitwise identical either way.
-  int parallel_min_faces = 1 << 14;
+  int parallel_min_faces = 1 << 16;
 };
 
 // The parts of one evaluation.
