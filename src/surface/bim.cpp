@@ -451,7 +451,10 @@ struct BimDirection {
     cand = bim_candidates(src, dst, opt, &R.num_candidates_total);
     K = int(cand.size());
     R.num_candidates = K;
-    if (K == 0) throw Error("BIM: no candidate maps (fewer than 3 feature points)");
+    if (K == 0)
+      throw NoCandidateMaps("BIM: no candidate map: every triplet of the " + std::to_string(src.features.size()) +
+                            " / " + std::to_string(dst.features.size()) +
+                            " feature points coincides numerically on the flattened sphere");
     R.timings.push_back({"candidates", seconds_since(t0)});
   }
 
@@ -766,11 +769,24 @@ BIMResult blended_intrinsic_maps(const TriMesh& A, const TriMesh& B, const BIMOp
                      std::to_string(opt.landmarks_B.size()) + ")");
   if (!opt.landmarks_A.empty() && opt.landmarks_A.size() < 3)
     throw InputError("landmarks: at least 3 correspondences are needed");
-  BIMSurface sa = bim_prepare(A, opt.name_A, opt, opt.landmarks_A, progress);
-  BIMSurface sb = bim_prepare(B, opt.name_B, opt, opt.landmarks_B, progress);
-  BIMResult out = bim_prepared(sa, sb, opt, progress, true);
-  out.total_seconds = seconds_since(t0);
-  return out;
+  BIMOptions o = opt;
+  std::uint64_t rs = opt.seed;
+  for (int attempt = 0;; ++attempt) {
+    try {
+      BIMSurface sa = bim_prepare(A, o.name_A, o, o.landmarks_A, progress);
+      BIMSurface sb = bim_prepare(B, o.name_B, o, o.landmarks_B, progress);
+      BIMResult out = bim_prepared(sa, sb, o, progress, true);
+      out.seed = o.seed;
+      out.seed_retries = attempt;
+      out.total_seconds = seconds_since(t0);
+      return out;
+    } catch (const NoCandidateMaps& e) {
+      if (attempt == kBimSeedRetries)
+        throw InputError(opt.name_A + ", " + opt.name_B + ": " + e.what() + " (seeds " + std::to_string(opt.seed) +
+                         " and " + std::to_string(kBimSeedRetries) + " others tried; --landmarks may help)");
+      o.seed = splitmix64(rs);
+    }
+  }
 }
 
 BIMResult bim_prepared(const BIMSurface& sa, const BIMSurface& sb, const BIMOptions& opt,

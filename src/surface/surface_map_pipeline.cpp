@@ -133,6 +133,25 @@ bool prepared_fits(const PreparedSurface* p, const BIMOptions& o) {
          p->options.num_even == o.num_even && p->options.min_vertices == o.min_vertices;
 }
 
+// BIM on the request's prepared surfaces when they fit the options, else (or when the prepared
+// surfaces give no candidate map) prepared here, with blended_intrinsic_maps' seed retries.
+BIMResult bim_for_request(const TriMesh& RA, const TriMesh& RB, const SurfaceMapRequest& req, const BIMOptions& o,
+                          bool use_prepared, const ProgressCallback& progress, std::vector<std::string>& notes) {
+  if (use_prepared && prepared_fits(req.prepared_A.get(), o) && prepared_fits(req.prepared_B.get(), o)) {
+    try {
+      BIMResult r = bim_prepared(*req.prepared_A->bim, *req.prepared_B->bim, o, progress);
+      r.seed = o.seed;
+      return r;
+    } catch (const NoCandidateMaps&) {
+    }
+  }
+  BIMResult r = blended_intrinsic_maps(RA, RB, o, progress);
+  if (r.seed_retries > 0)
+    notes.push_back("BIM: no candidate map with seed " + std::to_string(o.seed) + " (feature points coincide on the "
+                    "flattened sphere); seed " + std::to_string(r.seed) + " used");
+  return r;
+}
+
 void run_bim(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& req, const BarycentricMap* truth,
              const ProgressCallback& progress, SurfaceMapRun& run) {
   BIMOptions o = req.bim;
@@ -142,10 +161,7 @@ void run_bim(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& req, c
   if (!o.landmarks_A.empty() && o.landmarks_A.size() < 3)
     throw InputError(o.name_A + ": at least 3 landmarks are needed");
   const TriMesh &RA = run.repair_A.mesh, &RB = run.repair_B.mesh;
-  const bool prepared = o.landmarks_A.empty() &&
-                        prepared_fits(req.prepared_A.get(), o) && prepared_fits(req.prepared_B.get(), o);
-  BIMResult r = prepared ? bim_prepared(*req.prepared_A->bim, *req.prepared_B->bim, o, progress)
-                         : blended_intrinsic_maps(RA, RB, o, progress);
+  const BIMResult r = bim_for_request(RA, RB, req, o, o.landmarks_A.empty(), progress, run.notes);
   run.AB_repaired = r.AB.map;
   if (req.symmetric) run.BA_repaired = r.BA.map;
   nlohmann::json& j = run.report;
@@ -159,6 +175,8 @@ void run_bim(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& req, c
   nlohmann::json bim;
   bim["features_A"] = r.features_A;
   bim["features_B"] = r.features_B;
+  bim["seed"] = r.seed;
+  bim["seed_retries"] = r.seed_retries;  // > 0: no candidate map with the given seed
   bim["AB"] = direction_json(r.AB);
   if (req.symmetric) bim["BA"] = direction_json(r.BA);
   nlohmann::json stages = nlohmann::json::object();
@@ -193,10 +211,7 @@ std::string elastic_initial_maps(const TriMesh& A, const TriMesh& B, const Surfa
     bo.landmarks_B.clear();
     bo.symmetric = true;
     run.notes.push_back("elastic: initial maps by BIM (both directions)");
-    const bool prepared = prepared_fits(req.prepared_A.get(), bo) &&
-                          prepared_fits(req.prepared_B.get(), bo);
-    BIMResult r = prepared ? bim_prepared(*req.prepared_A->bim, *req.prepared_B->bim, bo, progress)
-                           : blended_intrinsic_maps(RA, RB, bo, progress);
+    const BIMResult r = bim_for_request(RA, RB, req, bo, true, progress, run.notes);
     initAB = r.AB.map;
     initBA = r.BA.map;
     return "bim";

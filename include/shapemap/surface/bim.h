@@ -12,6 +12,7 @@
 //     blended map of each group (Sec. 7) and the one with the best integrated confidence.
 //   blended_intrinsic_maps: both, A->B (and B->A with options.symmetric).
 #pragma once
+#include "shapemap/error.h"
 #include "shapemap/geometry/closest_point.h"
 #include "shapemap/maps.h"
 #include "shapemap/mesh.h"
@@ -148,13 +149,28 @@ struct BIMResult {
   BIMDirectionResult AB, BA;        // BA only with options.symmetric
   std::vector<int> features_A, features_B;
   int num_even = 0;
+  // The seed the maps came from: options.seed, or another one when blended_intrinsic_maps
+  // found no candidate map with it (seed_retries > 0; see NoCandidateMaps).
+  std::uint64_t seed = 0;
+  int seed_retries = 0;
   std::vector<std::pair<std::string, double>> timings;  // per stage, seconds
   double total_seconds = 0;
+};
+
+// Thrown when no triplet of feature correspondences gives a Möbius map: the feature points
+// coincide numerically on the flattened sphere (a thin shape's flattening crushes whole parts
+// to a point, e.g. a pair of glasses, SHREC'07 41 -> 44 with seed 2).
+struct NoCandidateMaps : Error {
+  using Error::Error;
 };
 
 BIMDirectionResult bim_map(const BIMSurface& src, const BIMSurface& dst, const BIMOptions& options,
                            const ProgressCallback& progress = {});
 
+// With no candidate map for options.seed, the surfaces are prepared again with up to
+// kBimSeedRetries other seeds (P_even's first sample, hence the AGD, its minimum where the
+// sphere is punctured, and the features all depend on it); then NoCandidateMaps.
+constexpr int kBimSeedRetries = 3;
 BIMResult blended_intrinsic_maps(const TriMesh& A, const TriMesh& B, const BIMOptions& options = {},
                                  const ProgressCallback& progress = {});
 
