@@ -169,7 +169,8 @@ BIMDirectionResult bim_map(const BIMSurface& src, const BIMSurface& dst, const B
 
 // With no candidate map for options.seed, the surfaces are prepared again with up to
 // kBimSeedRetries other seeds (P_even's first sample, hence the AGD, its minimum where the
-// sphere is punctured, and the features all depend on it); then NoCandidateMaps.
+// sphere is punctured, and the features all depend on it); then one InputError naming both
+// surfaces (exit 2 in the tool).
 constexpr int kBimSeedRetries = 3;
 BIMResult blended_intrinsic_maps(const TriMesh& A, const TriMesh& B, const BIMOptions& options = {},
                                  const ProgressCallback& progress = {});
