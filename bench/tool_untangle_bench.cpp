@@ -19,6 +19,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <string>
 
 using namespace shapemap;
@@ -92,6 +93,7 @@ int main(int argc, char** argv) {
                 u.sliver_BA.before.bad(), u.sliver_BA.after.bad());
   std::printf("passes %d, seconds %.1f\n", u.passes, sec);
   if (!out.empty()) {
+    std::filesystem::create_directories(out);  // (a missing folder used to abort the tool)
     write_map(out + "/map_AB.txt", map_to_inputs(P, rA, rB, B));
     write_map(out + "/map_BA.txt", map_to_inputs(Q, rB, rA, A));
   }
