@@ -310,8 +310,10 @@ def main():
     # Run a copy, so that a rebuild during a long run does not mix two versions.
     binhash = file_hash(r.bin)
     copy = os.path.join(args.work, "shapemap." + binhash)
-    if not os.path.exists(copy):
-        shutil.copy2(r.bin, copy)
+    if not os.path.exists(copy):  # under a temporary name first: two benches may start at once
+        tmp = "%s.%d" % (copy, os.getpid())
+        shutil.copy2(r.bin, tmp)
+        os.replace(tmp, copy)
     r.bin = copy
     rows = []
     for name in names:

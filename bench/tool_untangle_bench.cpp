@@ -1,11 +1,12 @@
-// The untangling stages of the elastic method (surface/refine_surface_maps.h, stages 2 and 3)
+// The untangling stages of the elastic method (surface/refine_surface_maps.h, stages 2 to 5)
 // on saved maps, without rerunning the refinement (issue 20). Reads the input surfaces and the
 // maps of `surface-map --method elastic --elastic-no-untangle` (the inputs' numbering),
 // repairs the surfaces as the command does, runs the stages, and prints per direction the
 // flipped + collapsed triangles after each stage (on the repaired surfaces, as report.json,
 // and on the inputs, as bench/surface_real.sh) and the round trip: the mean over A's vertices
 // of |Q(P(x)) - x| over A's bounding-box diagonal, on the inputs, as bench/surface_real.sh.
-// Usage: tool_untangle_bench A B map_AB map_BA [--no-wide] [--sliver-mips M] [--passes N] [-o DIR]
+// Usage: tool_untangle_bench A B map_AB map_BA [--no-wide] [--no-bridges] [--sliver-mips M] [--passes N] [-o DIR]
+// (--no-bridges: no stage 5; --bridge-sweeps N, --bridge-rings N: its sweeps and rings)
 // (--passes: SurfaceRefinementOptions::untangle_passes, default 3)
 // (--reverse-weight W, --tether T: UntangleOptions::reverse_weight / tether of every stage)
 // (--sliver-mips: stage 4's threshold, 0 skips stage 4)
@@ -41,24 +42,30 @@ double round_trip(const TriMesh& A, const TriMesh& B, const BarycentricMap& P, c
 
 int main(int argc, char** argv) {
   if (argc < 5) {
-    std::fprintf(stderr, "usage: tool_untangle_bench A B map_AB map_BA [--no-wide] [--sliver-mips M] [--passes N] "
-                 "[--reverse-weight W] [--tether T] [-o DIR]\n");
+    std::fprintf(stderr, "usage: tool_untangle_bench A B map_AB map_BA [--no-wide] [--no-bridges] [--sliver-mips M] "
+                 "[--passes N] [--reverse-weight W] [--tether T] [-o DIR]\n");
     return 2;
   }
   SurfaceRefinementOptions opt;
   std::string out;
   for (int i = 5; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--no-wide")) opt.wide_untangle = false;
+    else if (!std::strcmp(argv[i], "--no-bridges")) opt.bridge_untangle = false;
+    else if (!std::strcmp(argv[i], "--bridge-sweeps") && i + 1 < argc)
+      opt.bridge_untangling.sweeps = opt.bridge_untangling.smooth_sweeps = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--bridge-rings") && i + 1 < argc) opt.bridge_untangling.rings = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--passes") && i + 1 < argc) opt.untangle_passes = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "-o") && i + 1 < argc) out = argv[++i];
     else if (!std::strcmp(argv[i], "--sliver-mips") && i + 1 < argc)
       opt.sliver_untangling.sliver_mips = std::atof(argv[++i]);  // 0: no stage 4
     else if (!std::strcmp(argv[i], "--reverse-weight") && i + 1 < argc) {
       const double w = std::atof(argv[++i]);
-      opt.untangling.reverse_weight = opt.wide_untangling.reverse_weight = opt.sliver_untangling.reverse_weight = w;
+      opt.untangling.reverse_weight = opt.wide_untangling.reverse_weight = opt.sliver_untangling.reverse_weight =
+          opt.bridge_untangling.reverse_weight = w;
     } else if (!std::strcmp(argv[i], "--tether") && i + 1 < argc) {
       const double w = std::atof(argv[++i]);
-      opt.untangling.tether = opt.wide_untangling.tether = opt.sliver_untangling.tether = w;
+      opt.untangling.tether = opt.wide_untangling.tether = opt.sliver_untangling.tether =
+          opt.bridge_untangling.tether = w;
     }
   }
   if (!(opt.sliver_untangling.sliver_mips > 0)) opt.sliver_untangle = false;
@@ -91,6 +98,10 @@ int main(int argc, char** argv) {
                 u.sliver_AB.slivers_before, u.sliver_AB.slivers_after, u.sliver_AB.before.bad(),
                 u.sliver_AB.after.bad(), u.sliver_BA.slivers_before, u.sliver_BA.slivers_after,
                 u.sliver_BA.before.bad(), u.sliver_BA.after.bad());
+  if (u.bridges)
+    std::printf("stage 5: AB %d -> %d (%d of %d regions kept), BA %d -> %d (%d of %d)\n", u.bridge_AB.before.bad(),
+                u.bridge_AB.after.bad(), u.bridge_AB.regions_kept, u.bridge_AB.regions, u.bridge_BA.before.bad(),
+                u.bridge_BA.after.bad(), u.bridge_BA.regions_kept, u.bridge_BA.regions);
   std::printf("passes %d, seconds %.1f\n", u.passes, sec);
   if (!out.empty()) {
     std::filesystem::create_directories(out);  // (a missing folder used to abort the tool)

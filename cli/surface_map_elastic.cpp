@@ -58,6 +58,11 @@ void add_elastic_options(CLI::App* app, ElasticSettings& o, std::string& truth_a
                 "elastic: leave slivers (default: a last pass relaxes the regions around mapped "
                 "triangles squashed nearly flat, MIPS - 2 > 10, and keeps a region's change only "
                 "where the sliver count falls and the fold count does not rise; docs/methods.md)");
+  app->add_flag("--elastic-no-bridge-untangle", [&o](std::int64_t) { o.bridge_untangle = false; },
+                "elastic: leave folds with a corner mapped across a thin part of the target (default: "
+                "a last stage re-seats such a corner at the closest point to its neighbours' images "
+                "over the whole target before relaxing its region, kept only where the fold count "
+                "falls; docs/methods.md)");
   app->add_option("--elastic-untangle-passes", o.untangle_passes,
                   "elastic: repeat the untangling's stages at most this many times while a pass "
                   "lowers the flipped + collapsed count of both maps (default 3; 1: one pass; "

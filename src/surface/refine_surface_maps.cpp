@@ -31,34 +31,54 @@ SurfaceUntangling untangle_surface_maps(const TriMesh& A, const TriMesh& B, Bary
   const bool bij = Q.size() == B.num_vertices();
   u.wide = opt.wide_untangle;
   u.slivers = opt.sliver_untangle;
+  u.bridges = opt.bridge_untangle;
+  // one stage: A -> B with the reverse map as it is, then B -> A with the new A -> B
+  auto stage = [&](const UntangleOptions& o, UntangleResult& ab, UntangleResult& ba, bool first) {
+    const UntangleResult rab = untangle_surface_map(A, B, P, o, bij ? &Q : nullptr);
+    accumulate(ab, rab, first);
+    u.final_AB = rab.after;
+    if (bij) {
+      const UntangleResult rba = untangle_surface_map(B, A, Q, o, &P);
+      accumulate(ba, rba, first);
+      u.final_BA = rba.after;
+    }
+  };
+  auto count = [&] { return u.final_AB.bad() + (bij ? u.final_BA.bad() : 0); };
+  // Stage 5: bridges, once, where the passes would stop (run inside every pass it cost
+  // camel-gallop 04 -> 10 a fold elsewhere: the passes are path dependent), then stage 4 again
+  // for the slivers its regions leave.
+  bool bridged = false;
+  auto bridges = [&] {
+    bridged = true;
+    stage(opt.bridge_untangling, u.bridge_AB, u.bridge_BA, true);
+    if (u.slivers) stage(opt.sliver_untangling, u.sliver_AB, u.sliver_BA, false);
+  };
   int folds = -1;  // flipped + collapsed, both directions, after the last pass
   for (int pass = 0; pass < std::max(1, opt.untangle_passes); ++pass) {
     const bool first = pass == 0;
-    // one stage: A -> B with the reverse map as it is, then B -> A with the new A -> B
-    auto stage = [&](const UntangleOptions& o, UntangleResult& ab, UntangleResult& ba) {
-      const UntangleResult rab = untangle_surface_map(A, B, P, o, bij ? &Q : nullptr);
-      accumulate(ab, rab, first);
-      u.final_AB = rab.after;
-      if (bij) {
-        const UntangleResult rba = untangle_surface_map(B, A, Q, o, &P);
-        accumulate(ba, rba, first);
-        u.final_BA = rba.after;
-      }
-    };
-    stage(opt.untangling, u.AB, u.BA);
+    stage(opt.untangling, u.AB, u.BA, first);
     // Stage 3: what the local regions left (a patch mapped mirrored: every try of a small region
     // around it adds folds at its rim, so stage 2 gives it up).
-    if (u.wide) stage(opt.wide_untangling, u.wide_AB, u.wide_BA);
+    if (u.wide) stage(opt.wide_untangling, u.wide_AB, u.wide_BA, first);
     // Stage 4: slivers, after the folds so that their regions do not change the fold stages'.
-    if (u.slivers) stage(opt.sliver_untangling, u.sliver_AB, u.sliver_BA);
+    if (u.slivers) stage(opt.sliver_untangling, u.sliver_AB, u.sliver_BA, first);
     u.passes = pass + 1;
     // Another pass starts with no region given up (untangle.cpp's `hopeless` marks are per
     // call) and with each direction's reverse term on the other's latest map; it is run while
-    // the last one lowered the folds (each pass never raises them).
-    const int now = u.final_AB.bad() + (bij ? u.final_BA.bad() : 0);
-    if (now == 0 || (!first && now >= folds)) break;
+    // the last one lowered the folds (each pass never raises them), and after stage 5 when
+    // that lowered them.
+    int now = count();
+    bool more = now > 0 && (first || now < folds);
+    if (!more && u.bridges && !bridged) {
+      const int before = now;
+      bridges();
+      now = count();
+      more = now > 0 && now < before;
+    }
+    if (!more) break;
     folds = now;
   }
+  if (u.bridges && !bridged) bridges();  // the passes ended on their cap
   return u;
 }
 

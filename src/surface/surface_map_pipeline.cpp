@@ -444,7 +444,7 @@ void run_elastic(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& re
   nlohmann::json untangle_json = nlohmann::json{{"enabled", ref.untangled}};
   if (ref.untangled) {
     const SurfaceUntangling& u = ref.untangling;
-    untangle_json["passes"] = u.passes;  // stages 2-4 repeated while the folds fell
+    untangle_json["passes"] = u.passes;  // stages 2-5 repeated while the folds fell
     untangle_json["AB"] = untangle_json_of(u.AB);
     if (bij) untangle_json["BA"] = untangle_json_of(u.BA);
     // stage 3 (refine_surface_maps.h): the same over wide regions, for what stage 2 left
@@ -458,6 +458,12 @@ void run_elastic(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& re
     if (u.slivers) {
       untangle_json["slivers"]["AB"] = untangle_json_of(u.sliver_AB);
       if (bij) untangle_json["slivers"]["BA"] = untangle_json_of(u.sliver_BA);
+    }
+    // stage 5: stage 2's regions with the corners mapped across a thin part re-seated first
+    untangle_json["bridges"]["enabled"] = u.bridges;
+    if (u.bridges) {
+      untangle_json["bridges"]["AB"] = untangle_json_of(u.bridge_AB);
+      if (bij) untangle_json["bridges"]["BA"] = untangle_json_of(u.bridge_BA);
     }
   }
   run.AB_repaired = r.map_AB;
@@ -480,6 +486,7 @@ void set_refinement_stages(const ElasticSettings& o, SurfaceRefinementOptions& r
   ro.untangle = o.untangle;
   ro.wide_untangle = o.wide_untangle;
   ro.sliver_untangle = o.sliver_untangle;
+  ro.bridge_untangle = o.bridge_untangle;
   ro.untangle_passes = o.untangle_passes;
   ro.feature_anchors = o.feature_anchors;
   if (o.anchor_tolerance >= 0) ro.anchoring.tolerance = o.anchor_tolerance;

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <vector>
 
 namespace shapemap {
@@ -262,6 +263,86 @@ struct Untangler {
     Y.row(v) = target_point(f, b).transpose();
   }
 
+  // A bridge: v's image on a target face turned more than 90 degrees from its neighbours' side
+  // of the target, i.e. on the far side of a thin part (a leg, an ear) from them. Two cases:
+  // (a) the mean of the target normals at its neighbours' images is at least half a unit long
+  // (they agree: not a rim with neighbours on both sides) and v's normal is turned from it;
+  // (b) with `flags` (the faces' classes), v is a corner of a flipped or collapsed triangle
+  // whose two other corners' normals are both turned from v's, its neighbours split between
+  // the sides (camel-gallop 01 -> 05's face 4601: |mean| 0.45). *x: the average image of the
+  // neighbours on their side, *side: that side's normal.
+  bool is_bridge(int v, const std::vector<unsigned char>* flags = nullptr, Eigen::Vector3d* x = nullptr,
+                 Eigen::Vector3d* side = nullptr) const {
+    const Eigen::Vector3d nv = Nt.row(P.elem(v)).transpose();
+    Eigen::Vector3d nbar = Eigen::Vector3d::Zero();
+    int k = 0;
+    for (int q = inc_s.begin(v); q < inc_s.end(v); ++q)
+      for (int j = 0; j < 3; ++j)
+        if (Fs(inc_s.faces[q], j) != v) {
+          nbar += Nt.row(P.elem(Fs(inc_s.faces[q], j))).transpose();
+          ++k;
+        }
+    if (k == 0) return false;
+    nbar /= k;
+    Eigen::Vector3d ref = Eigen::Vector3d::Zero();
+    if (nbar.norm() >= 0.5 && nv.dot(nbar) < 0) ref = nbar;
+    else if (flags)
+      for (int q = inc_s.begin(v); q < inc_s.end(v) && ref.isZero(); ++q) {
+        const int t = inc_s.faces[q];
+        if ((*flags)[t] == 0 || (*flags)[t] == kSliver) continue;
+        Eigen::Vector3d others = Eigen::Vector3d::Zero();
+        bool turned = true;
+        for (int j = 0; j < 3; ++j)
+          if (Fs(t, j) != v) {
+            const Eigen::Vector3d n = Nt.row(P.elem(Fs(t, j))).transpose();
+            turned = turned && nv.dot(n) < 0;
+            others += n;
+          }
+        if (turned) ref = others;
+      }
+    if (ref.isZero()) return false;
+    if (x) {  // the neighbours on ref's side
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      int m = 0;
+      for (int q = inc_s.begin(v); q < inc_s.end(v); ++q)
+        for (int j = 0; j < 3; ++j) {
+          const int w = Fs(inc_s.faces[q], j);
+          if (w != v && Nt.row(P.elem(w)).dot(ref) > 0) {
+            sum += Y.row(w).transpose();
+            ++m;
+          }
+        }
+      if (m == 0) return false;
+      *x = sum / m;
+    }
+    if (side) *side = ref;
+    return true;
+  }
+
+  // The whole target's closest points (reseat_bridge), built on first use.
+  std::unique_ptr<ClosestPoint3> target_bvh;
+
+  // A bridge re-seated at the closest point of the whole target to its neighbours' average
+  // image on their side, when that point's face is turned their way; the tether's anchor moves
+  // with it (the refined image it held is the defect). Returns whether v moved.
+  bool reseat_bridge(int v, const std::vector<unsigned char>& flags) {
+    Eigen::Vector3d x, side;
+    if (!is_bridge(v, &flags, &x, &side)) return false;
+    if (!target_bvh) target_bvh = std::make_unique<ClosestPoint3>(Xt, Ft);
+    // the average lies below their side's surface, nearer the far side where the part is
+    // thinner than the ring (camel-gallop 10 -> 04's vertex 4252): lifted off it along the
+    // side's normal by up to two mean edge lengths until the closest point is on their side
+    ClosestPointResult r;
+    for (int lift = 0; lift < 3; ++lift) {
+      r = target_bvh->query(Eigen::Vector3d(x + lift * edge_len[v] * side.normalized()));
+      if (r.elem >= 0 && Nt.row(r.elem).dot(side) > 0) break;
+    }
+    if (r.elem < 0 || Nt.row(r.elem).dot(side) <= 0) return false;
+    set_image(v, r.elem, r.bary.head<3>());
+    Y0.row(v) = Y.row(v);
+    return true;
+  }
+
   // Move v's image to the average of its neighbours' images (projected near its face): a
   // Gauss-Seidel sweep of Tutte's embedding, which spreads images that coincide (collapsed
   // triangles, where every rotation-invariant energy of J is stationary).
@@ -325,8 +406,10 @@ struct Untangler {
   }
 };
 
-// Per face of S: 0 fine, 1 flipped, 2 collapsed (fold_counts), kSliver (opt.sliver_mips).
-// Returns the fold counts; *slivers: the faces marked kSliver.
+// Per face of S: 0 fine, 1 flipped, 2 collapsed (fold_counts), kSliver (opt.sliver_mips, or a
+// corner that is a bridge when opt.reseat_bridges: a defect the fold count may not see, the
+// triangle looking whole in its tangent plane). Returns the fold counts; *slivers: the faces
+// marked kSliver.
 FoldCounts classify_faces(const Untangler& U, const TriMesh& S, const TriMesh& T, const BarycentricMap& P,
                           const UntangleOptions& opt, std::vector<unsigned char>& flags, int* slivers) {
   const FoldCounts c = fold_counts(U.Xs, S.F, U.Y, U.Nt, T.F, P, opt.degenerate_tol, &flags);
@@ -335,6 +418,15 @@ FoldCounts classify_faces(const Untangler& U, const TriMesh& S, const TriMesh& T
     const Eigen::VectorXd mips = conformal_distortion(U.Xs, U.Y, S.F);
     for (int t = 0; t < S.F.rows(); ++t)
       if (flags[t] == 0 && mips(t) > opt.sliver_mips) {
+        flags[t] = kSliver;
+        ++*slivers;
+      }
+  }
+  if (opt.reseat_bridges) {
+    std::vector<unsigned char> bridge(S.V.rows());
+    for (int v = 0; v < S.V.rows(); ++v) bridge[v] = U.is_bridge(v);
+    for (int t = 0; t < S.F.rows(); ++t)
+      if (flags[t] == 0 && (bridge[S.F(t, 0)] || bridge[S.F(t, 1)] || bridge[S.F(t, 2)])) {
         flags[t] = kSliver;
         ++*slivers;
       }
@@ -398,10 +490,13 @@ Tally tally(const std::vector<int>& faces, const std::vector<unsigned char>& fla
   return c;
 }
 
-// Tutte sweeps over the corners of the region's collapsed (or flipped) triangles, then the
-// energy's sweeps over all its vertices with delta shrinking geometrically.
+// The bridges among the corners of the region's folds re-seated (opt.reseat_bridges), Tutte
+// sweeps over the corners of its collapsed (or flipped) triangles, then the energy's sweeps
+// over all its vertices with delta shrinking geometrically.
 void relax_region(Untangler& U, const std::vector<int>& R, const std::vector<unsigned char>& flags,
                   const UntangleOptions& opt) {
+  if (opt.reseat_bridges)
+    for (int v : R) U.reseat_bridge(v, flags);
   std::vector<int> seeds;
   for (int v : R)
     for (int i = U.inc_s.begin(v); i < U.inc_s.end(v); ++i)
@@ -451,9 +546,11 @@ UntangleResult untangle_surface_map(const TriMesh& S, const TriMesh& T, Barycent
       BarycentricMap saved;
       saved.elem.resize(int(R.size()));
       saved.bary.resize(int(R.size()), 3);
+      Eigen::MatrixXd saved_anchors(R.size(), 3);  // the tether's (a re-seated bridge moves its own)
       for (size_t i = 0; i < R.size(); ++i) {
         saved.elem(int(i)) = P.elem(R[i]);
         saved.bary.row(int(i)) = P.bary.row(R[i]);
+        saved_anchors.row(int(i)) = U.Y0.row(R[i]);
       }
       relax_region(U, R, flags, opt);
       int unused = 0;
@@ -470,8 +567,10 @@ UntangleResult untangle_surface_map(const TriMesh& S, const TriMesh& T, Barycent
         if (worse)
           for (int t : faces)
             if (flags[t]) hopeless[t] = 1;
-        for (size_t i = 0; i < R.size(); ++i)
+        for (size_t i = 0; i < R.size(); ++i) {
           U.set_image(R[i], saved.elem(int(i)), saved.bary.row(int(i)).transpose());
+          U.Y0.row(R[i]) = saved_anchors.row(int(i));
+        }
       }
     }
     res.after = classify_faces(U, S, T, P, opt, flags, &res.slivers_after);

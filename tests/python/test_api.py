@@ -219,6 +219,14 @@ def test_elastic_untangle_option(surfaces):
     for d in ("AB", "BA"):
         assert (on.report["elastic"]["untangle"]["slivers"][d]["bad_triangles_after"]
                 <= one.report["elastic"]["untangle"]["slivers"][d]["bad_triangles_after"])
+    # elastic_bridge_untangle=False: no stage 5 (--elastic-no-bridge-untangle); with it, never a fold more
+    assert on.report["elastic"]["untangle"]["bridges"]["enabled"] is True
+    nob = shapemap.surface_map(VA, FA, VB, FB, method="elastic", elastic_iterations=3,
+                               elastic_bridge_untangle=False, **FAST_BIM)
+    assert nob.report["elastic"]["untangle"]["bridges"] == {"enabled": False}
+    for d in ("AB", "BA"):
+        b = on.report["elastic"]["untangle"]["bridges"][d]
+        assert b["bad_triangles_after"] <= b["bad_triangles_before"]
 
 
 def test_elastic_landmarks_are_the_anchors(surfaces, pair):

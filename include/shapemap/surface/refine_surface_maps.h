@@ -13,10 +13,12 @@
 //   3. the same untangling again over wide regions with more sweeps (UntangleOptions::wide),
 //      for what stage 2 leaves: mostly patches mapped mirrored (docs/methods.md);
 //   4. the same untangling over regions around slivers, mapped triangles squashed nearly flat
-//      (UntangleOptions::slivers).
-// Stages 2 and 3 keep a region's new images only where its fold count falls, stage 4 where its
+//      (UntangleOptions::slivers);
+//   5. stage 2's regions again with their bridges re-seated first: corners mapped across a thin
+//      part of the target, which the local steps cannot bring back (UntangleOptions::bridges).
+// Stages 2, 3 and 5 keep a region's new images only where its fold count falls, stage 4 where its
 // sliver count falls and its fold count does not rise, so the returned maps never have more
-// flipped or collapsed triangles than the refinement's. Stages 2 to 4 are repeated while a pass
+// flipped or collapsed triangles than the refinement's. Stages 2 to 5 are repeated while a pass
 // lowers the folds (SurfaceRefinementOptions::untangle_passes).
 #pragma once
 #include "shapemap/maps.h"
@@ -32,27 +34,31 @@ struct SurfaceRefinementOptions {
   bool feature_anchors = true;
   FeatureAnchorOptions anchoring;
   ElasticOptions elastic;       // stage 1 (progress goes through elastic.progress)
-  bool untangle = true;         // stages 2 to 4 (--elastic-no-untangle turns them off)
+  bool untangle = true;         // stages 2 to 5 (--elastic-no-untangle turns them off)
   UntangleOptions untangling;   // stage 2
   bool wide_untangle = true;    // stage 3 (--elastic-no-wide-untangle turns it off)
   UntangleOptions wide_untangling = UntangleOptions::wide();
   bool sliver_untangle = true;  // stage 4 (--elastic-no-sliver-untangle turns it off)
   UntangleOptions sliver_untangling = UntangleOptions::slivers();
-  // Stages 2 to 4 are repeated, at most this many times, while a pass lowers the flipped +
+  bool bridge_untangle = true;  // stage 5 (--elastic-no-bridge-untangle turns it off)
+  UntangleOptions bridge_untangling = UntangleOptions::bridges();
+  // Stages 2 to 5 are repeated, at most this many times, while a pass lowers the flipped +
   // collapsed count of both maps (the 45 camel pose pairs, one pass -> 3: 12 -> 15 fold-free
   // after repair, folds 14,322 -> 13,068; docs/methods.md). 1 = one pass.
   int untangle_passes = 3;
 };
 
-// Stages 2 to 4, per direction (BA: only with a reverse map).
+// Stages 2 to 5, per direction (BA: only with a reverse map).
 struct SurfaceUntangling {
   UntangleResult AB, BA;            // stage 2
   bool wide = false;                // stage 3 ran
   UntangleResult wide_AB, wide_BA;  // stage 3
   bool slivers = false;             // stage 4 ran
   UntangleResult sliver_AB, sliver_BA;  // stage 4
+  bool bridges = false;             // stage 5 ran
+  UntangleResult bridge_AB, bridge_BA;  // stage 5
   FoldCounts final_AB, final_BA;    // the returned maps
-  int passes = 0;                   // passes of stages 2 to 4 run (untangle_passes); each
+  int passes = 0;                   // passes of stages 2 to 5 run (untangle_passes); each
                                     // stage's result: before = the first pass's, after = the
                                     // last's, regions, vertices and seconds summed
 };
@@ -73,7 +79,7 @@ struct SurfaceRefinement {
 SurfaceRefinement refine_surface_maps(const TriMesh& A, const TriMesh& B, const BarycentricMap& init_AB,
                                       const BarycentricMap& init_BA, const SurfaceRefinementOptions& opt = {});
 
-// Stages 2 to 4 alone on P: A -> B and Q: B -> A (Q empty: A -> B only, without the
+// Stages 2 to 5 alone on P: A -> B and Q: B -> A (Q empty: A -> B only, without the
 // reversibility term), both changed in place.
 SurfaceUntangling untangle_surface_maps(const TriMesh& A, const TriMesh& B, BarycentricMap& P, BarycentricMap& Q,
                                         const SurfaceRefinementOptions& opt = {});

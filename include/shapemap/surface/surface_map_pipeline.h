@@ -46,7 +46,8 @@ struct ElasticSettings {
   // patches mapped mirrored; refine_surface_maps.h, stage 3).
   bool wide_untangle = true;
   bool sliver_untangle = true;  // stage 4 of refine_surface_maps.h (--elastic-no-sliver-untangle)
-  int untangle_passes = 3;      // stages 2-4 repeated while folds fall (--elastic-untangle-passes)
+  bool bridge_untangle = true;  // stage 5 of refine_surface_maps.h (--elastic-no-bridge-untangle)
+  int untangle_passes = 3;      // stages 2-5 repeated while folds fall (--elastic-untangle-passes)
   // Stage 0 of refine_surface_maps.h: feature anchors (feature_anchors.h; the landmarks when
   // the initial maps come from landmarks). --elastic-no-feature-anchors, --elastic-anchor-weight.
   bool feature_anchors = true;
@@ -57,7 +58,7 @@ struct ElasticSettings {
 };
 
 // The stages around the refinement in `o` (refine_surface_maps.h: stage 0, the anchors, and
-// stages 2 to 4, the untangling) set in `ro`. Shared by the surface-map command and
+// stages 2 to 5, the untangling) set in `ro`. Shared by the surface-map command and
 // volume-map's automatic initialization.
 void set_refinement_stages(const ElasticSettings& o, SurfaceRefinementOptions& ro);
 

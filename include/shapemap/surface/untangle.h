@@ -55,6 +55,18 @@ struct UntangleOptions {
   // 0 = folds only (stages 2 and 3); slivers() sets it for stage 4.
   double sliver_mips = 0;
   bool seed_folds = true;     // regions grow from folds (and slivers); false: from slivers only
+  // Bridges: a vertex whose image lies on the far side of a thin part of the target (a leg,
+  // an ear) from its neighbours' images: its face's normal turned more than 90 degrees from
+  // the mean of theirs when they agree (mean at least half a unit long), or from both other
+  // corners' of a fold it is a corner of. The faces around one count as bad beside the folds
+  // (as slivers do: the fold count may not see them, the triangle looking whole in its
+  // tangent plane), and before a region is relaxed each is re-seated at the closest point of
+  // the whole target to its neighbours' average image on their side (lifted along their
+  // normal by up to two edge lengths until that point's face is turned their way; the
+  // relaxation's steps walk on the faces near the image and cannot get round). Kept, like the
+  // rest of the region, where its folds fall, or stay and its bad faces fall. bridges() sets
+  // it for stage 5.
+  bool reseat_bridges = false;
   // Stage 3 of refine_surface_maps.h, for what the defaults leave: regions of 4 (then 8) rings
   // and 200 sweeps from delta 0.3. A patch mapped mirrored needs both: the first try of a
   // 2-ring region around it adds folds at its rim, which marks its faces as not to be tried
@@ -79,6 +91,14 @@ struct UntangleOptions {
     o.sliver_mips = 10;
     o.seed_folds = false;
     o.rounds = 2;
+    return o;
+  }
+  // Stage 5 of refine_surface_maps.h, after the others: stage 2's regions with their bridges
+  // re-seated first (camel-gallop pairs: a corner across a leg, its image 17-30 times its
+  // triangle's area; docs/methods.md, "Bridges").
+  static UntangleOptions bridges() {
+    UntangleOptions o;
+    o.reseat_bridges = true;
     return o;
   }
   // Both surfaces are measured as unit-area copies (Sec. 5.2's global scale, and the frame in
