@@ -267,12 +267,11 @@ struct Untangler {
   // of the target, i.e. on the far side of a thin part (a leg, an ear) from them. Two cases:
   // (a) the mean of the target normals at its neighbours' images is at least half a unit long
   // (they agree: not a rim with neighbours on both sides) and v's normal is turned from it;
-  // (b) with `flags` (the faces' classes), v is a corner of a flipped or collapsed triangle
-  // whose two other corners' normals are both turned from v's, its neighbours split between
-  // the sides (camel-gallop 01 -> 05's face 4601: |mean| 0.45). *x: the average image of the
-  // neighbours on their side, *side: that side's normal.
-  bool is_bridge(int v, const std::vector<unsigned char>* flags = nullptr, Eigen::Vector3d* x = nullptr,
-                 Eigen::Vector3d* side = nullptr) const {
+  // (b) v is a corner of a flipped or collapsed triangle (`flags`, the faces' classes) whose
+  // two other corners' normals are both turned from v's, its neighbours split between the
+  // sides (camel-gallop 01 -> 05's face 4601: |mean| 0.45). x: the average image of the
+  // neighbours on their side, side: that side's normal.
+  bool is_bridge(int v, const std::vector<unsigned char>& flags, Eigen::Vector3d& x, Eigen::Vector3d& side) const {
     const Eigen::Vector3d nv = Nt.row(P.elem(v)).transpose();
     Eigen::Vector3d nbar = Eigen::Vector3d::Zero();
     int k = 0;
@@ -286,10 +285,10 @@ struct Untangler {
     nbar /= k;
     Eigen::Vector3d ref = Eigen::Vector3d::Zero();
     if (nbar.norm() >= 0.5 && nv.dot(nbar) < 0) ref = nbar;
-    else if (flags)
+    else
       for (int q = inc_s.begin(v); q < inc_s.end(v) && ref.isZero(); ++q) {
         const int t = inc_s.faces[q];
-        if ((*flags)[t] == 0 || (*flags)[t] == kSliver) continue;
+        if (flags[t] == 0 || flags[t] == kSliver) continue;
         Eigen::Vector3d others = Eigen::Vector3d::Zero();
         bool turned = true;
         for (int j = 0; j < 3; ++j)
@@ -301,21 +300,19 @@ struct Untangler {
         if (turned) ref = others;
       }
     if (ref.isZero()) return false;
-    if (x) {  // the neighbours on ref's side
-      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-      int m = 0;
-      for (int q = inc_s.begin(v); q < inc_s.end(v); ++q)
-        for (int j = 0; j < 3; ++j) {
-          const int w = Fs(inc_s.faces[q], j);
-          if (w != v && Nt.row(P.elem(w)).dot(ref) > 0) {
-            sum += Y.row(w).transpose();
-            ++m;
-          }
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();  // the neighbours on ref's side
+    int m = 0;
+    for (int q = inc_s.begin(v); q < inc_s.end(v); ++q)
+      for (int j = 0; j < 3; ++j) {
+        const int w = Fs(inc_s.faces[q], j);
+        if (w != v && Nt.row(P.elem(w)).dot(ref) > 0) {
+          sum += Y.row(w).transpose();
+          ++m;
         }
-      if (m == 0) return false;
-      *x = sum / m;
-    }
-    if (side) *side = ref;
+      }
+    if (m == 0) return false;
+    x = sum / m;
+    side = ref;
     return true;
   }
 
@@ -327,7 +324,7 @@ struct Untangler {
   // with it (the refined image it held is the defect). Returns whether v moved.
   bool reseat_bridge(int v, const std::vector<unsigned char>& flags) {
     Eigen::Vector3d x, side;
-    if (!is_bridge(v, &flags, &x, &side)) return false;
+    if (!is_bridge(v, flags, x, side)) return false;
     if (!target_bvh) target_bvh = std::make_unique<ClosestPoint3>(Xt, Ft);
     // the average lies below their side's surface, nearer the far side where the part is
     // thinner than the ring (camel-gallop 10 -> 04's vertex 4252): lifted off it along the
@@ -406,10 +403,8 @@ struct Untangler {
   }
 };
 
-// Per face of S: 0 fine, 1 flipped, 2 collapsed (fold_counts), kSliver (opt.sliver_mips, or a
-// corner that is a bridge when opt.reseat_bridges: a defect the fold count may not see, the
-// triangle looking whole in its tangent plane). Returns the fold counts; *slivers: the faces
-// marked kSliver.
+// Per face of S: 0 fine, 1 flipped, 2 collapsed (fold_counts), kSliver (opt.sliver_mips).
+// Returns the fold counts; *slivers: the faces marked kSliver.
 FoldCounts classify_faces(const Untangler& U, const TriMesh& S, const TriMesh& T, const BarycentricMap& P,
                           const UntangleOptions& opt, std::vector<unsigned char>& flags, int* slivers) {
   const FoldCounts c = fold_counts(U.Xs, S.F, U.Y, U.Nt, T.F, P, opt.degenerate_tol, &flags);
@@ -418,15 +413,6 @@ FoldCounts classify_faces(const Untangler& U, const TriMesh& S, const TriMesh& T
     const Eigen::VectorXd mips = conformal_distortion(U.Xs, U.Y, S.F);
     for (int t = 0; t < S.F.rows(); ++t)
       if (flags[t] == 0 && mips(t) > opt.sliver_mips) {
-        flags[t] = kSliver;
-        ++*slivers;
-      }
-  }
-  if (opt.reseat_bridges) {
-    std::vector<unsigned char> bridge(S.V.rows());
-    for (int v = 0; v < S.V.rows(); ++v) bridge[v] = U.is_bridge(v);
-    for (int t = 0; t < S.F.rows(); ++t)
-      if (flags[t] == 0 && (bridge[S.F(t, 0)] || bridge[S.F(t, 1)] || bridge[S.F(t, 2)])) {
         flags[t] = kSliver;
         ++*slivers;
       }

@@ -134,8 +134,8 @@ TEST(RefineSurfaceMaps, PassesRepeatTheStagesWhileTheFoldsFall) {
 // the other way (> 120 degrees) and more than 8 rings away (the thinnest places: limbs, not
 // creases) are each moved onto that face, with a reverse map that agrees. Stages 2 to 4 cannot
 // walk such an image back round the limb (their steps stay on the faces near the image): they
-// leave a fold and the images across, some with no fold the count sees (the triangle looks
-// whole in its tangent plane); stage 5 brings each back and leaves no fold.
+// leave a fold and the images across (two with no fold the count sees: the triangles look
+// whole in the tangent plane); stage 5 brings the one at the fold back and leaves no fold.
 TEST(RefineSurfaceMaps, BridgeStageReseatsCornersMappedAcrossAThinPart) {
   const GeneratedPair pair = make_creature_pair(3, PairKind::NonIsometric, 3000);
   const TriMesh &A = pair.A, &B = pair.B;
@@ -222,7 +222,14 @@ TEST(RefineSurfaceMaps, BridgeStageReseatsCornersMappedAcrossAThinPart) {
   EXPECT_EQ(u5.final_AB.bad(), 0) << u4.final_AB.bad() << " without stage 5";
   EXPECT_EQ(u5.final_AB.bad(), bad(A, B, P));
   EXPECT_LE(u5.final_BA.bad(), bad(B, A, Q0));
+  // the bridge at the fold is back on its side, near its true image; a bridge without a fold
+  // is left where it was (stage 5 keeps a region only where its folds fall: docs/methods.md,
+  // "Bridges")
   const std::vector<double> e5 = errors(P);
-  for (size_t i = 0; i < moved.size(); ++i)  // each bridge back on its side, near its true image
-    EXPECT_LT(e5[i], 0.02) << "vertex " << moved[i] << " (" << e4[i] << " without stage 5)";
+  int back = 0;
+  for (size_t i = 0; i < moved.size(); ++i) {
+    if (e5[i] < 0.02) ++back;
+    else EXPECT_NEAR(e5[i], e4[i], 1e-12) << "vertex " << moved[i];
+  }
+  EXPECT_GE(back, 1);
 }

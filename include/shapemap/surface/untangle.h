@@ -58,14 +58,14 @@ struct UntangleOptions {
   // Bridges: a vertex whose image lies on the far side of a thin part of the target (a leg,
   // an ear) from its neighbours' images: its face's normal turned more than 90 degrees from
   // the mean of theirs when they agree (mean at least half a unit long), or from both other
-  // corners' of a fold it is a corner of. The faces around one count as bad beside the folds
-  // (as slivers do: the fold count may not see them, the triangle looking whole in its
-  // tangent plane), and before a region is relaxed each is re-seated at the closest point of
-  // the whole target to its neighbours' average image on their side (lifted along their
-  // normal by up to two edge lengths until that point's face is turned their way; the
-  // relaxation's steps walk on the faces near the image and cannot get round). Kept, like the
-  // rest of the region, where its folds fall, or stay and its bad faces fall. bridges() sets
-  // it for stage 5.
+  // corners' of a fold it is a corner of. Before a fold's region is relaxed, each of its
+  // bridges is re-seated at the closest point of the whole target to its neighbours' average
+  // image on their side (lifted along their normal by up to two edge lengths until that
+  // point's face is turned their way; the relaxation's steps walk on the faces near the image
+  // and cannot get round). Kept, like the rest of the region, only where its folds fall (a
+  // bridge without a fold is left: counted as bad, it moved hundreds of vertices on camel
+  // pairs whose two maps disagree and lengthened their round trip, docs/methods.md).
+  // bridges() sets it for stage 5.
   bool reseat_bridges = false;
   // Stage 3 of refine_surface_maps.h, for what the defaults leave: regions of 4 (then 8) rings
   // and 200 sweeps from delta 0.3. A patch mapped mirrored needs both: the first try of a
