@@ -21,6 +21,13 @@ std::vector<std::vector<int>> vertex_neighbors(const Eigen::MatrixXi& elements, 
 // Elements incident to each vertex.
 std::vector<std::vector<int>> vertex_elements(const Eigen::MatrixXi& elements, int num_vertices);
 
+// Elements incident to each vertex in compressed rows: elems[start[v] .. start[v + 1]) are the
+// elements with corner v, ascending. Two flat arrays, for loops that run every iteration.
+struct VertexElementsCsr {
+  std::vector<int> start, elems;
+};
+VertexElementsCsr vertex_elements_csr(const Eigen::MatrixXi& elements, int num_vertices);
+
 // Connected components of the vertex graph induced by the elements; returns the
 // component id per vertex (vertices used by no element get their own components)
 // and writes the count to num_components.

@@ -70,6 +70,19 @@ std::vector<std::vector<int>> vertex_neighbors(const Eigen::MatrixXi& elements, 
   return adj;
 }
 
+VertexElementsCsr vertex_elements_csr(const Eigen::MatrixXi& elements, int num_vertices) {
+  VertexElementsCsr c;
+  c.start.assign(num_vertices + 1, 0);
+  for (int t = 0; t < elements.rows(); ++t)
+    for (int j = 0; j < elements.cols(); ++j) ++c.start[elements(t, j) + 1];
+  for (int v = 0; v < num_vertices; ++v) c.start[v + 1] += c.start[v];
+  c.elems.resize(c.start[num_vertices]);
+  std::vector<int> fill(c.start.begin(), c.start.end() - 1);
+  for (int t = 0; t < elements.rows(); ++t)
+    for (int j = 0; j < elements.cols(); ++j) c.elems[fill[elements(t, j)]++] = t;
+  return c;
+}
+
 std::vector<std::vector<int>> vertex_elements(const Eigen::MatrixXi& elements, int num_vertices) {
   std::vector<std::vector<int>> inc(num_vertices);
   for (Eigen::Index e = 0; e < elements.rows(); ++e)

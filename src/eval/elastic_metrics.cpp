@@ -75,23 +75,17 @@ Eigen::VectorXd area_distortion(const Eigen::MatrixXd& X, const Eigen::MatrixXd&
 
 FoldCounts fold_counts(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F, const Eigen::MatrixXd& Y,
                        const Eigen::MatrixXd& Nt, const Eigen::MatrixXi& Ft, const BarycentricMap& P,
-                       double degenerate_tol, std::vector<unsigned char>* faces) {
+                       double degenerate_tol, std::vector<unsigned char>* faces,
+                       const VertexElementsCsr* target_vertex_faces) {
   const int m = int(F.rows());
   if (faces) faces->assign(m, 0);
   FoldCounts c;
   const double log_tol = std::log(degenerate_tol);
-  // faces around each target vertex (CSR)
-  const int nt = Ft.rows() ? int(Ft.maxCoeff()) + 1 : 0;
-  std::vector<int> start(nt + 1, 0), around;
-  for (int t = 0; t < Ft.rows(); ++t)
-    for (int j = 0; j < 3; ++j) ++start[Ft(t, j) + 1];
-  for (int v = 0; v < nt; ++v) start[v + 1] += start[v];
-  around.resize(start[nt]);
-  {
-    std::vector<int> fill(start.begin(), start.end() - 1);
-    for (int t = 0; t < Ft.rows(); ++t)
-      for (int j = 0; j < 3; ++j) around[fill[Ft(t, j)]++] = t;
-  }
+  // faces around each target vertex
+  VertexElementsCsr own;
+  if (!target_vertex_faces) own = vertex_elements_csr(Ft, Ft.rows() ? int(Ft.maxCoeff()) + 1 : 0);
+  const VertexElementsCsr& vf = target_vertex_faces ? *target_vertex_faces : own;
+  const std::vector<int>&start = vf.start, &around = vf.elems;
   constexpr double kAt = 1e-6;  // barycentric tolerance: on an edge / at a vertex
   // The target normal at P's point i that is the most aligned with n: the normal of its face,
   // or of a face around the vertex / across the edge it lies on.

@@ -1,5 +1,7 @@
 // Elastic correspondence, Algorithm 1 (Eq. 4, 6). See elastic.h and docs/methods.md.
 #include "shapemap/surface/elastic.h"
+
+#include "shapemap/adjacency.h"
 #include "shapemap/splitmix.h"
 #include "shapemap/timing.h"
 #include "shapemap/eval/surface_distortion.h"
@@ -561,6 +563,7 @@ struct DirectionLog {
   const TriMesh* S = nullptr;      // source (input coordinates, for the event centroid)
   Eigen::MatrixXd Xs, Xt, Nt;      // unit-area source, target, and the target's unit face normals
   Eigen::MatrixXi Ft;
+  VertexElementsCsr target_faces;  // around each target vertex, for fold_counts (once, not per call)
   Normalization to_unit_target;    // working frame of Y -> unit-area target frame (partial mode)
   bool working_is_unit = true;
   FoldCounts map0, shell0;         // at the start
@@ -571,12 +574,12 @@ struct DirectionLog {
 
   FoldCounts map_folds(const BarycentricMap& P, std::vector<unsigned char>* out) const {
     return fold_counts(Xs, S->F, map_positions(P, Xt, Ft), Nt, Ft, P,
-                       SurfaceDistortionOptions{}.degenerate_tol, out);
+                       SurfaceDistortionOptions{}.degenerate_tol, out, &target_faces);
   }
   FoldCounts shell_folds(const RowMat3& Y, const BarycentricMap& P,
                          std::vector<unsigned char>* out) const {
     const Eigen::MatrixXd Yu = working_is_unit ? Eigen::MatrixXd(Y) : to_unit_target.apply(Eigen::MatrixXd(Y));
-    return fold_counts(Xs, S->F, Yu, Nt, Ft, P, SurfaceDistortionOptions{}.degenerate_tol, out);
+    return fold_counts(Xs, S->F, Yu, Nt, Ft, P, SurfaceDistortionOptions{}.degenerate_tol, out, &target_faces);
   }
   // Faces bad now and fine at the start -> the event (iteration k, 1-based).
   void record(ElasticCollapseEvent& ev, int k, const std::vector<unsigned char>& now,
@@ -705,6 +708,7 @@ void setup_direction_logs(const TriMesh& A, const TriMesh& B, const BarycentricM
     L.Xs = Xs;
     L.Xt = Xt;
     L.Ft = Ft;
+    L.target_faces = vertex_elements_csr(Ft, int(Xt.rows()));
     L.Nt = Nt;
     L.to_unit_target = ut;
     L.working_is_unit = normalize_area;

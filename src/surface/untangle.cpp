@@ -1,6 +1,7 @@
 // Untangling a surface map on its target: see untangle.h and docs/methods.md.
 #include "shapemap/surface/untangle.h"
 
+#include "shapemap/adjacency.h"
 #include "shapemap/geometry/closest_point.h"
 #include <chrono>
 
@@ -74,17 +75,8 @@ namespace {
 constexpr unsigned char kSliver = 3;  // face flag beside fold_counts' 1 (flipped) and 2 (collapsed)
 
 // Vertex -> incident faces (CSR).
-struct Incidence {
-  std::vector<int> start, faces;
-  Incidence(const Eigen::MatrixXi& F, int n) : start(n + 1, 0) {
-    for (int t = 0; t < F.rows(); ++t)
-      for (int j = 0; j < 3; ++j) ++start[F(t, j) + 1];
-    for (int v = 0; v < n; ++v) start[v + 1] += start[v];
-    faces.resize(start[n]);
-    std::vector<int> fill(start.begin(), start.end() - 1);
-    for (int t = 0; t < F.rows(); ++t)
-      for (int j = 0; j < 3; ++j) faces[fill[F(t, j)]++] = t;
-  }
+struct Incidence : VertexElementsCsr {
+  Incidence(const Eigen::MatrixXi& F, int n) : VertexElementsCsr(vertex_elements_csr(F, n)) {}
   int begin(int v) const { return start[v]; }
   int end(int v) const { return start[v + 1]; }
 };
@@ -187,7 +179,7 @@ struct Untangler {
     if (g) g->setZero();
     Eigen::Matrix3d dY;
     for (int q = inc_s.begin(v); q < inc_s.end(v); ++q) {
-      const int t = inc_s.faces[q];
+      const int t = inc_s.elems[q];
       E += face_energy(t, delta, g ? &dY : nullptr);
       if (g)
         for (int j = 0; j < 3; ++j)
@@ -225,9 +217,9 @@ struct Untangler {
     if (!near.empty()) return near;
     for (int j = 0; j < 3; ++j)
       for (int q = inc_t.begin(Ft(f, j)); q < inc_t.end(Ft(f, j)); ++q) {
-        const int g = inc_t.faces[q];
+        const int g = inc_t.elems[q];
         for (int k = 0; k < 3; ++k)
-          for (int r = inc_t.begin(Ft(g, k)); r < inc_t.end(Ft(g, k)); ++r) near.push_back(inc_t.faces[r]);
+          for (int r = inc_t.begin(Ft(g, k)); r < inc_t.end(Ft(g, k)); ++r) near.push_back(inc_t.elems[r]);
       }
     std::sort(near.begin(), near.end());
     near.erase(std::unique(near.begin(), near.end()), near.end());
@@ -277,8 +269,8 @@ struct Untangler {
     int k = 0;
     for (int q = inc_s.begin(v); q < inc_s.end(v); ++q)
       for (int j = 0; j < 3; ++j)
-        if (Fs(inc_s.faces[q], j) != v) {
-          nbar += Nt.row(P.elem(Fs(inc_s.faces[q], j))).transpose();
+        if (Fs(inc_s.elems[q], j) != v) {
+          nbar += Nt.row(P.elem(Fs(inc_s.elems[q], j))).transpose();
           ++k;
         }
     if (k == 0) return false;
@@ -287,7 +279,7 @@ struct Untangler {
     if (nbar.norm() >= 0.5 && nv.dot(nbar) < 0) ref = nbar;
     else
       for (int q = inc_s.begin(v); q < inc_s.end(v) && ref.isZero(); ++q) {
-        const int t = inc_s.faces[q];
+        const int t = inc_s.elems[q];
         if (flags[t] == 0 || flags[t] == kSliver) continue;
         Eigen::Vector3d others = Eigen::Vector3d::Zero();
         bool turned = true;
@@ -304,7 +296,7 @@ struct Untangler {
     int m = 0;
     for (int q = inc_s.begin(v); q < inc_s.end(v); ++q)
       for (int j = 0; j < 3; ++j) {
-        const int w = Fs(inc_s.faces[q], j);
+        const int w = Fs(inc_s.elems[q], j);
         if (w != v && Nt.row(P.elem(w)).dot(ref) > 0) {
           sum += Y.row(w).transpose();
           ++m;
@@ -348,8 +340,8 @@ struct Untangler {
     int k = 0;
     for (int q = inc_s.begin(v); q < inc_s.end(v); ++q)
       for (int j = 0; j < 3; ++j)
-        if (Fs(inc_s.faces[q], j) != v) {
-          x += Y.row(Fs(inc_s.faces[q], j)).transpose();
+        if (Fs(inc_s.elems[q], j) != v) {
+          x += Y.row(Fs(inc_s.elems[q], j)).transpose();
           ++k;
         }
     if (k == 0) return;
@@ -407,7 +399,7 @@ struct Untangler {
 // Returns the fold counts; *slivers: the faces marked kSliver.
 FoldCounts classify_faces(const Untangler& U, const TriMesh& S, const TriMesh& T, const BarycentricMap& P,
                           const UntangleOptions& opt, std::vector<unsigned char>& flags, int* slivers) {
-  const FoldCounts c = fold_counts(U.Xs, S.F, U.Y, U.Nt, T.F, P, opt.degenerate_tol, &flags);
+  const FoldCounts c = fold_counts(U.Xs, S.F, U.Y, U.Nt, T.F, P, opt.degenerate_tol, &flags, &U.inc_t);
   *slivers = 0;
   if (opt.sliver_mips > 0) {
     const Eigen::VectorXd mips = conformal_distortion(U.Xs, U.Y, S.F);
@@ -447,7 +439,7 @@ std::vector<std::vector<int>> free_regions(const Untangler& U, const Eigen::Matr
       const int v = R[q];
       for (int i = U.inc_s.begin(v); i < U.inc_s.end(v); ++i)
         for (int j = 0; j < 3; ++j) {
-          const int w = F(U.inc_s.faces[i], j);
+          const int w = F(U.inc_s.elems[i], j);
           if (fr[w] && comp[w] < 0) {
             comp[w] = comp[s];
             R.push_back(w);
@@ -486,7 +478,7 @@ void relax_region(Untangler& U, const std::vector<int>& R, const std::vector<uns
   std::vector<int> seeds;
   for (int v : R)
     for (int i = U.inc_s.begin(v); i < U.inc_s.end(v); ++i)
-      if (flags[U.inc_s.faces[i]] != kSliver && flags[U.inc_s.faces[i]] >= opt.smooth_min_flag) {
+      if (flags[U.inc_s.elems[i]] != kSliver && flags[U.inc_s.elems[i]] >= opt.smooth_min_flag) {
         seeds.push_back(v);
         break;
       }
@@ -523,7 +515,7 @@ UntangleResult untangle_surface_map(const TriMesh& S, const TriMesh& T, Barycent
       // the faces the region's images touch, and how many of them are bad now
       std::vector<int> faces;
       for (int v : R)
-        for (int i = U.inc_s.begin(v); i < U.inc_s.end(v); ++i) faces.push_back(U.inc_s.faces[i]);
+        for (int i = U.inc_s.begin(v); i < U.inc_s.end(v); ++i) faces.push_back(U.inc_s.elems[i]);
       std::sort(faces.begin(), faces.end());
       faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
       const Tally before = tally(faces, flags, hopeless);

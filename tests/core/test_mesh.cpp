@@ -3,7 +3,10 @@
 #include "shapemap/adjacency.h"
 #include "shapemap/mesh.h"
 #include <gtest/gtest.h>
+#include <algorithm>
 #include <cmath>
+#include <utility>
+#include <vector>
 
 using namespace shapemap;
 
@@ -116,4 +119,30 @@ TEST(Adjacency, EdgesAndComponents) {
   Eigen::VectorXi c = connected_components(F2, 6, &nc);
   EXPECT_EQ(nc, 2);
   EXPECT_NE(c(0), c(3));
+}
+
+// vertex_elements_csr against vertex_elements (lists) and a scan of every element, on the
+// cube's tets (6 around the diagonal 0-6) and on triangles with an unused vertex.
+TEST(Adjacency, VertexElementsCsrMatchesTheLists) {
+  const TetMesh cube = unit_cube_tets();
+  Eigen::MatrixXi F(3, 3);
+  F << 0, 1, 2, 2, 1, 3, 3, 1, 4;
+  for (const auto& [E, n] : {std::pair<Eigen::MatrixXi, int>{cube.T, 8}, {F, 6}}) {
+    const VertexElementsCsr c = vertex_elements_csr(E, n);
+    const auto lists = vertex_elements(E, n);
+    ASSERT_EQ(int(c.start.size()), n + 1);
+    EXPECT_EQ(c.start[n], int(E.size()));
+    for (int v = 0; v < n; ++v) {
+      std::vector<int> scan;  // brute force: every element with corner v, ascending
+      for (int t = 0; t < E.rows(); ++t)
+        for (int j = 0; j < E.cols(); ++j)
+          if (E(t, j) == v) scan.push_back(t);
+      const std::vector<int> row(c.elems.begin() + c.start[v], c.elems.begin() + c.start[v + 1]);
+      EXPECT_EQ(row, scan) << "vertex " << v;
+      std::vector<int> list = lists[v];
+      std::sort(list.begin(), list.end());
+      EXPECT_EQ(row, list) << "vertex " << v;
+    }
+  }
+  EXPECT_EQ(vertex_elements_csr(cube.T, 8).start[7] - vertex_elements_csr(cube.T, 8).start[6], 6);  // the diagonal's end
 }

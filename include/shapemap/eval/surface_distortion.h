@@ -7,6 +7,7 @@
 // (X~, F~); a source triangle t is "mapped" to the straight triangle spanned by the
 // images of its corners (positions P X~), and compared with t itself.
 #pragma once
+#include "shapemap/adjacency.h"
 #include "shapemap/maps.h"
 #include "shapemap/mesh.h"
 #include <Eigen/Core>
@@ -59,9 +60,12 @@ struct FoldCounts {
   int degenerate = 0;
   int bad() const { return flipped + degenerate; }
 };
+// target_vertex_faces (optional): vertex_elements_csr(Ft, number of target vertices), for
+// callers that count every iteration (built here when absent).
 FoldCounts fold_counts(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F, const Eigen::MatrixXd& Y,
                        const Eigen::MatrixXd& Nt, const Eigen::MatrixXi& Ft, const BarycentricMap& P,
-                       double degenerate_tol = 1e-12, std::vector<unsigned char>* faces = nullptr);
+                       double degenerate_tol = 1e-12, std::vector<unsigned char>* faces = nullptr,
+                       const VertexElementsCsr* target_vertex_faces = nullptr);
 
 // All of the above for the map P: S -> T (P: S.num_vertices() rows onto T's faces).
 SurfaceDistortion surface_distortion(const TriMesh& S, const TriMesh& T, const BarycentricMap& P,
