@@ -444,7 +444,7 @@ void run_elastic(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& re
   nlohmann::json untangle_json = nlohmann::json{{"enabled", ref.untangled}};
   if (ref.untangled) {
     const SurfaceUntangling& u = ref.untangling;
-    untangle_json["passes"] = u.passes;  // stages 2-5 repeated while the folds fell
+    untangle_json["passes"] = u.passes;  // stages 2-4 repeated while the folds fell
     untangle_json["AB"] = untangle_json_of(u.AB);
     if (bij) untangle_json["BA"] = untangle_json_of(u.BA);
     // stage 3 (refine_surface_maps.h): the same over wide regions, for what stage 2 left

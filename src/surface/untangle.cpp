@@ -524,11 +524,12 @@ UntangleResult untangle_surface_map(const TriMesh& S, const TriMesh& T, Barycent
       BarycentricMap saved;
       saved.elem.resize(int(R.size()));
       saved.bary.resize(int(R.size()), 3);
-      Eigen::MatrixXd saved_anchors(R.size(), 3);  // the tether's (a re-seated bridge moves its own)
+      // the tether's anchors, which only a re-seated bridge moves (stage 5)
+      Eigen::MatrixXd saved_anchors(opt.reseat_bridges ? R.size() : 0, 3);
       for (size_t i = 0; i < R.size(); ++i) {
         saved.elem(int(i)) = P.elem(R[i]);
         saved.bary.row(int(i)) = P.bary.row(R[i]);
-        saved_anchors.row(int(i)) = U.Y0.row(R[i]);
+        if (opt.reseat_bridges) saved_anchors.row(int(i)) = U.Y0.row(R[i]);
       }
       relax_region(U, R, flags, opt);
       int unused = 0;
@@ -547,7 +548,7 @@ UntangleResult untangle_surface_map(const TriMesh& S, const TriMesh& T, Barycent
             if (flags[t]) hopeless[t] = 1;
         for (size_t i = 0; i < R.size(); ++i) {
           U.set_image(R[i], saved.elem(int(i)), saved.bary.row(int(i)).transpose());
-          U.Y0.row(R[i]) = saved_anchors.row(int(i));
+          if (opt.reseat_bridges) U.Y0.row(R[i]) = saved_anchors.row(int(i));
         }
       }
     }

@@ -18,8 +18,9 @@
 //      part of the target, which the local steps cannot bring back (UntangleOptions::bridges).
 // Stages 2, 3 and 5 keep a region's new images only where its fold count falls, stage 4 where its
 // sliver count falls and its fold count does not rise, so the returned maps never have more
-// flipped or collapsed triangles than the refinement's. Stages 2 to 5 are repeated while a pass
-// lowers the folds (SurfaceRefinementOptions::untangle_passes).
+// flipped or collapsed triangles than the refinement's. Stages 2 to 4 are repeated while a pass
+// lowers the folds (SurfaceRefinementOptions::untangle_passes); stage 5 runs once, where those
+// passes would stop, and the passes go on when it lowered the folds.
 #pragma once
 #include "shapemap/maps.h"
 #include "shapemap/mesh.h"
@@ -42,7 +43,7 @@ struct SurfaceRefinementOptions {
   UntangleOptions sliver_untangling = UntangleOptions::slivers();
   bool bridge_untangle = true;  // stage 5 (--elastic-no-bridge-untangle turns it off)
   UntangleOptions bridge_untangling = UntangleOptions::bridges();
-  // Stages 2 to 5 are repeated, at most this many times, while a pass lowers the flipped +
+  // Stages 2 to 4 are repeated (stage 5 once among them), at most this many times, while a pass lowers the flipped +
   // collapsed count of both maps (the 45 camel pose pairs, one pass -> 3: 12 -> 15 fold-free
   // after repair, folds 14,322 -> 13,068; docs/methods.md). 1 = one pass.
   int untangle_passes = 3;
@@ -58,7 +59,7 @@ struct SurfaceUntangling {
   bool bridges = false;             // stage 5 ran
   UntangleResult bridge_AB, bridge_BA;  // stage 5
   FoldCounts final_AB, final_BA;    // the returned maps
-  int passes = 0;                   // passes of stages 2 to 5 run (untangle_passes); each
+  int passes = 0;                   // passes of stages 2 to 4 run (untangle_passes); each
                                     // stage's result: before = the first pass's, after = the
                                     // last's, regions, vertices and seconds summed
 };
