@@ -10,10 +10,21 @@
 // with 8 threads gave a different map in 3 runs of 40; never with the reference BLAS):
 // those calls are serialized across all objects. Simplicial ones use no BLAS and run
 // concurrently.
+//
+// CHOLMOD's supernodal code also opens OpenMP regions of its own, with a fixed team of 4
+// threads (num_threads(CHOLMOD_OMP_NUM_THREADS), which omp_set_num_threads and --threads
+// do not reach), to zero each supernode and to clear its maps: thousands of regions per
+// factorization, each waking 3 sleeping threads (the CLI's passive wait policy) on a
+// 2-core machine for work smaller than the wake-up. Measured on cat -> lion's volume map
+// (29.8k + 28.4k tets) with one thread: 3.4 million context switches, 20 s of system time,
+// 88.7 s; with those regions held to one thread, 170 and 2.8 s, 62.1 s. So these calls run
+// with OpenMP's active levels at 0 (every region one thread), under the BLAS lock (the
+// setting is process-wide, and the lock keeps the saves and restores from interleaving).
 #include "shapemap/geometry/sparse_cholesky.h"
 #include "shapemap/error.h"
 #include <Eigen/CholmodSupport>
 #include <mutex>
+#include <omp.h>
 #include <string>
 
 namespace shapemap {
@@ -22,6 +33,28 @@ std::mutex& blas_mutex() {
   static std::mutex m;
   return m;
 }
+
+// Holds the BLAS lock (supernodal calls only) and, with it, OpenMP regions to one thread
+// for its lifetime (the note at the top).
+class SupernodalCall {
+ public:
+  explicit SupernodalCall(bool supernodal) : lock_(blas_mutex(), std::defer_lock) {
+    if (!supernodal) return;
+    lock_.lock();
+    if (omp_in_parallel()) return;  // nested regions are inactive already
+    levels_ = omp_get_max_active_levels();
+    omp_set_max_active_levels(0);
+  }
+  ~SupernodalCall() {
+    if (levels_ >= 0) omp_set_max_active_levels(levels_);
+  }
+  SupernodalCall(const SupernodalCall&) = delete;
+  SupernodalCall& operator=(const SupernodalCall&) = delete;
+
+ private:
+  std::unique_lock<std::mutex> lock_;
+  int levels_ = -1;
+};
 }  // namespace
 
 struct SparseCholesky::Impl {
@@ -60,7 +93,10 @@ struct SparseCholesky::Impl {
     if (analyze || !factor || int(A.rows()) != n) {
       if (factor) cholmod_free_factor(&factor, &common);
       n = int(A.rows());
-      factor = cholmod_analyze(&view, &common);
+      {
+        const SupernodalCall call(common.supernodal != CHOLMOD_SIMPLICIAL);
+        factor = cholmod_analyze(&view, &common);
+      }
       if (!factor || common.status < CHOLMOD_OK)
         throw Error("SparseCholesky: symbolic analysis failed (CHOLMOD status " +
                     std::to_string(common.status) + ")");
@@ -69,8 +105,7 @@ struct SparseCholesky::Impl {
     if (!numeric_too) return;
     numeric = false;
     {
-      std::unique_lock<std::mutex> lock(blas_mutex(), std::defer_lock);
-      if (common.supernodal != CHOLMOD_SIMPLICIAL) lock.lock();
+      const SupernodalCall call(common.supernodal != CHOLMOD_SIMPLICIAL);
       cholmod_factorize(&view, factor, &common);
     }
     if (common.status == CHOLMOD_NOT_POSDEF || factor->minor < factor->n) {
@@ -101,8 +136,7 @@ struct SparseCholesky::Impl {
     b.dtype = CHOLMOD_DOUBLE;
     cholmod_dense* x = nullptr;
     {
-      std::unique_lock<std::mutex> lock(blas_mutex(), std::defer_lock);
-      if (factor->is_super) lock.lock();
+      const SupernodalCall call(factor->is_super);
       x = cholmod_solve(CHOLMOD_A, factor, &b, &c);
     }
     if (!x) {
