@@ -276,6 +276,11 @@ void add_alternation_options(CLI::App* app, VolumeMapArgs& a) {
                   "0 = --newton-iterations)")
       ->check(non_negative())
       ->capture_default_str();
+  app->add_option("--newton-refactor-cg", a.opt.newton_refactor_cg,
+                  "Joint X-steps: keep the Hessian's Cholesky factors as the CG preconditioner while CG "
+                  "needs at most this many iterations (ours, speed; 0 = factor every Newton step)")
+      ->check(non_negative())
+      ->capture_default_str();
   app->add_option("--boundary-fixed-expansions", a.opt.boundary_fixed_expansions,
                   "Stage 2: when a full Newton step is accepted, try doubling it up to this many times "
                   "while Eq. 25 keeps falling (ours; 0 = off)")

@@ -24,8 +24,11 @@ NewtonResult CoupledNewton::minimize(const NewtonValue& f, const CoupledHessian&
     H2_.set_zero();
     hess(z, H1_, H2_, C_);
     res.seconds_hessian += seconds_since(t);
-    if (n1 > 0) factor_shifted(H1_, chol1_, res);
-    if (n2 > 0) factor_shifted(H2_, chol2_, res);
+    if (!factored_ || refactor_ || opt.newton.refactor_cg <= 0) {
+      if (n1 > 0) factor_shifted(H1_, chol1_, res);
+      if (n2 > 0) factor_shifted(H2_, chol2_, res);
+      factored_ = true;
+    }
     t = Clock::now();
     if (C_.rows() != n1 || C_.cols() != n2) throw Error("CoupledNewton: the coupling block has the wrong size");
     auto apply = [&](const Eigen::VectorXd& p, Eigen::VectorXd& q) {
@@ -39,28 +42,9 @@ NewtonResult CoupledNewton::minimize(const NewtonValue& f, const CoupledHessian&
       if (n2 > 0) s.tail(n2) = chol2_.solve(Eigen::VectorXd(r.tail(n2)));
     };
     // PCG on [H1 C; C^T H2] d = -g from d = 0.
-    Eigen::VectorXd r = -g, s, p, q;
-    d.setZero(n1 + n2);
-    precondition(r, s);
-    p = s;
-    double rs = r.dot(s);
-    const double rs0 = rs;
-    for (int k = 0; k < opt.cg_iterations && rs > opt.cg_rel_tol * opt.cg_rel_tol * rs0; ++k) {
-      apply(p, q);
-      const double pq = p.dot(q);
-      if (!(pq > 0)) {  // rounding on a semi-definite system: keep what we have
-        if (k == 0) d = p;
-        break;
-      }
-      const double a = rs / pq;
-      d += a * p;
-      r -= a * q;
-      precondition(r, s);
-      const double rs_new = r.dot(s);
-      p = s + (rs_new / rs) * p;
-      rs = rs_new;
-      ++cg_total_;
-    }
+    const int k = preconditioned_cg(apply, precondition, g, d, opt.newton.cg_iterations, opt.newton.cg_rel_tol);
+    cg_total_ += k;
+    refactor_ = k > opt.newton.refactor_cg;
     res.seconds_solve += seconds_since(t);
   };
   return newton_descent(f, newton, x, opt.newton);

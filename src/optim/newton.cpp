@@ -36,6 +36,33 @@ void factor_shifted(BlockHessian& H, SparseCholesky& chol, NewtonResult& res) {
   res.seconds_factor += seconds_since(t);
 }
 
+int preconditioned_cg(const LinearProduct& A, const LinearProduct& M, const Eigen::VectorXd& g, Eigen::VectorXd& d,
+                      int max_iterations, double rel_tol) {
+  Eigen::VectorXd r = -g, s, p, q;
+  d.setZero(g.size());
+  M(r, s);
+  p = s;
+  double rs = r.dot(s);
+  const double rs0 = rs;
+  int k = 0;
+  for (; k < max_iterations && rs > rel_tol * rel_tol * rs0; ++k) {
+    A(p, q);
+    const double pq = p.dot(q);
+    if (!(pq > 0)) {  // rounding on a semi-definite system: keep what we have
+      if (k == 0) d = p;
+      break;
+    }
+    const double a = rs / pq;
+    d += a * p;
+    r -= a * q;
+    M(r, s);
+    const double rs_new = r.dot(s);
+    p = s + (rs_new / rs) * p;
+    rs = rs_new;
+  }
+  return k;
+}
+
 NewtonResult newton_descent(const NewtonValue& f, const NewtonDirection& direction, Eigen::VectorXd& x,
                             const NewtonOptions& opt) {
   const Eigen::Index N = x.size();
@@ -133,9 +160,19 @@ NewtonResult ProjectedNewton::minimize(const NewtonValue& f, const NewtonHessian
     H_.set_zero();
     hess(z, H_);
     res.seconds_hessian += seconds_since(t);
-    factor_shifted(H_, chol_, res);
-    t = Clock::now();
-    d = -chol_.solve(g);
+    if (opt.refactor_cg <= 0 || !factored_ || refactor_) {
+      factor_shifted(H_, chol_, res);
+      factored_ = true;
+      refactor_ = false;
+      t = Clock::now();
+      d = -chol_.solve(g);
+    } else {
+      t = Clock::now();
+      const int k = preconditioned_cg([&](const Eigen::VectorXd& p, Eigen::VectorXd& q) { q = H_.multiply(p); },
+                                      [&](const Eigen::VectorXd& r, Eigen::VectorXd& s) { s = chol_.solve(r); }, g, d,
+                                      opt.cg_iterations, opt.cg_rel_tol);
+      refactor_ = k > opt.refactor_cg;
+    }
     res.seconds_solve += seconds_since(t);
   };
   return newton_descent(f, newton, x, opt);

@@ -12,6 +12,7 @@
 #include "shapemap/timing.h"
 #include "shapemap/volume/foldover_free.h"
 #include "shapemap/volume/untangle.h"
+#include <cstdlib>
 #include <Eigen/Dense>
 #include <algorithm>
 #include <chrono>
@@ -1611,6 +1612,7 @@ class SymmetricMapSolver {
     no.newton.f_rel_tol = opt_.newton_rel_tol;
     no.newton.max_expansions = fix_boundary ? opt_.boundary_fixed_expansions : 0;
     no.newton.grad_tol = 0;
+    no.newton.refactor_cg = opt_.newton_refactor_cg;
     const NewtonResult nr = cn.minimize(f, h, z, no);
     scatter_p(z);
     X12_ = Y12;
@@ -1624,6 +1626,7 @@ class SymmetricMapSolver {
     st.lbfgs_iterations += nr.iterations;
     st.evaluations += nr.evaluations;
     st.cg_iterations += cn.cg_iterations();
+    st.factorizations += nr.factorizations;
     grad_norm = nr.grad_norm;
     return energy();
   }

@@ -198,6 +198,66 @@ TEST(ProjectedNewton, ConvergesQuadraticallyAndHoldsFixedVertices) {
   EXPECT_LT(gq.norm(), 1e-9);
 }
 
+// NewtonOptions::refactor_cg: a kept factor preconditions CG on the current Hessian. The
+// descent reaches the exact-solve run's minimizer with fewer factorizations than steps.
+TEST(ProjectedNewton, KeptFactorPreconditionsCGToTheSameMinimizer) {
+  const Springs s = make_springs(5);
+  const std::vector<int> free = {0, 1, 3, 4};
+  Eigen::MatrixXd Xf = Eigen::MatrixXd::Zero(5, 3), G;
+  Xf.row(2) << 2, -1, 3;  // fixed
+  auto scatter = [&](const Eigen::VectorXd& z) {
+    for (int q = 0; q < 4; ++q) Xf.row(free[q]) = z.segment<3>(3 * q).transpose();
+  };
+  NewtonValue f = [&](const Eigen::VectorXd& z, Eigen::VectorXd* g) {
+    scatter(z);
+    const double v = s.value(Xf, g ? &G : nullptr);
+    if (g)
+      for (int q = 0; q < 4; ++q) g->segment<3>(3 * q) = G.row(free[q]).transpose();
+    return v;
+  };
+  NewtonHessian h = [&](const Eigen::VectorXd& z, BlockHessian& H) {
+    scatter(z);
+    s.hessian(Xf, H);
+  };
+  NewtonOptions o;
+  o.max_iterations = 60;
+  o.grad_tol = 1e-9;
+  o.f_rel_tol = 0;
+  Eigen::VectorXd exact = Eigen::VectorXd::Zero(12), kept = exact;
+  ProjectedNewton p0(BlockHessian(s.T, 5, free)), p1(BlockHessian(s.T, 5, free));
+  const NewtonResult r0 = p0.minimize(f, h, exact, o);
+  o.refactor_cg = 4;
+  o.cg_iterations = 50;
+  o.cg_rel_tol = 1e-8;
+  const NewtonResult r1 = p1.minimize(f, h, kept, o);
+  EXPECT_EQ(r0.stop, "gradient");
+  EXPECT_EQ(r1.stop, "gradient");
+  EXPECT_EQ(r0.factorizations, r0.iterations);
+  EXPECT_LT(r1.factorizations, r1.iterations);
+  EXPECT_LT((kept - exact).norm(), 1e-6);
+}
+
+// preconditioned_cg against a dense solve; an exact preconditioner needs one iteration.
+TEST(PreconditionedCG, SolvesASymmetricPositiveDefiniteSystem) {
+  std::mt19937 rng(7);
+  std::normal_distribution<double> n01(0, 1);
+  Eigen::MatrixXd B(12, 12);
+  for (int i = 0; i < B.size(); ++i) B(i) = n01(rng);
+  const Eigen::MatrixXd A = B * B.transpose() + Eigen::MatrixXd::Identity(12, 12);
+  Eigen::VectorXd g(12), d;
+  for (int i = 0; i < 12; ++i) g(i) = n01(rng);
+  const Eigen::VectorXd truth = A.ldlt().solve(-g);
+  auto apply = [&](const Eigen::VectorXd& p, Eigen::VectorXd& q) { q = A * p; };
+  auto identity = [](const Eigen::VectorXd& r, Eigen::VectorXd& s) { s = r; };
+  const int k = preconditioned_cg(apply, identity, g, d, 100, 1e-12);
+  EXPECT_LE(k, 20);  // 12 in exact arithmetic
+  EXPECT_LT((d - truth).norm(), 1e-8 * truth.norm());
+  const Eigen::LDLT<Eigen::MatrixXd> exact(A);
+  auto inverse = [&](const Eigen::VectorXd& r, Eigen::VectorXd& s) { s = exact.solve(r); };
+  EXPECT_EQ(preconditioned_cg(apply, inverse, g, d, 100, 1e-10), 1);
+  EXPECT_LT((d - truth).norm(), 1e-10 * truth.norm());
+}
+
 // A Hessian that is singular (a free vertex nobody constrains) gets a diagonal shift and
 // still gives a descent step.
 TEST(ProjectedNewton, ShiftsASingularHessian) {
@@ -312,8 +372,8 @@ TEST(CoupledNewton, SolvesTheJointSystemWhereSeparateStepsCrawl) {
   o.newton.max_iterations = 1;
   o.newton.f_rel_tol = 0;
   o.newton.grad_tol = 0;
-  o.cg_iterations = 200;
-  o.cg_rel_tol = 1e-13;
+  o.newton.cg_iterations = 200;
+  o.newton.cg_rel_tol = 1e-13;
   // A quadratic: one step with an exact inner solve lands on the minimizer.
   ts.set_quartic(false);
   for (bool couple : {true, false}) {
@@ -337,11 +397,24 @@ TEST(CoupledNewton, SolvesTheJointSystemWhereSeparateStepsCrawl) {
   Eigen::VectorXd z = Eigen::VectorXd::Zero(30);
   o.newton.max_iterations = 40;
   o.newton.grad_tol = 1e-9;
-  o.cg_rel_tol = 1e-6;
+  o.newton.cg_rel_tol = 1e-6;
   const NewtonResult r = cn.minimize(
       f, [&](const Eigen::VectorXd& x, BlockHessian& H1, BlockHessian& H2,
              Eigen::SparseMatrix<double>& C) { ts.hessian(x, H1, H2, C, true); },
       z, o);
   EXPECT_EQ(r.stop, "gradient");
   EXPECT_LT(r.iterations, 30);
+  // Kept factors (NewtonOptions::refactor_cg): the same minimizer, fewer factorizations.
+  CoupledNewton ck(BlockHessian(ts.a.T, 5, all), BlockHessian(ts.b.T, 5, all));
+  Eigen::VectorXd zk = Eigen::VectorXd::Zero(30);
+  o.newton.refactor_cg = 40;
+  o.newton.cg_iterations = 100;
+  o.newton.cg_rel_tol = 1e-8;
+  const NewtonResult rk = ck.minimize(
+      f, [&](const Eigen::VectorXd& x, BlockHessian& H1, BlockHessian& H2,
+             Eigen::SparseMatrix<double>& C) { ts.hessian(x, H1, H2, C, true); },
+      zk, o);
+  EXPECT_EQ(rk.stop, "gradient");
+  EXPECT_LT(rk.factorizations, 2 * rk.iterations);  // two blocks per refactorization
+  EXPECT_LT((zk - z).norm(), 1e-6);
 }

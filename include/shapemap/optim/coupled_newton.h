@@ -14,10 +14,11 @@
 
 namespace shapemap {
 
+// The CG solve's limits and the kept factors (refactor_cg) are NewtonOptions' (newton.h):
+// here CG always runs, and refactor_cg > 0 keeps the factors of H1 and H2 as its
+// preconditioner while it needs at most that many iterations.
 struct CoupledNewtonOptions {
   NewtonOptions newton;
-  int cg_iterations = 30;    // at most, per Newton step
-  double cg_rel_tol = 1e-3;  // stop when the preconditioned residual fell by this factor
 };
 
 // Fills H1 and H2 (zeroed) and sets C (3·H1.num_free() × 3·H2.num_free()) at x; together
@@ -43,6 +44,7 @@ class CoupledNewton {
   SparseCholesky chol2_{SparseCholesky::Method::Supernodal, SparseCholesky::Ordering::NestedDissection};
   Eigen::SparseMatrix<double> C_;
   int cg_total_ = 0;
+  bool factored_ = false, refactor_ = true;  // factors held; the next step must refactor
 };
 
 }  // namespace shapemap

@@ -25,6 +25,14 @@ struct NewtonOptions {
   // curvature where f is concave, e.g. at inverted tets, so the full step can be far shorter
   // than the descent it allows).
   int max_expansions = 0;
+  // ProjectedNewton, > 0: a factor of H is kept as the preconditioner of conjugate gradients
+  // on H d = -g in later steps (and later minimize calls) while CG needs at most this many
+  // iterations (cg_iterations at most, to cg_rel_tol); a step whose CG needs more refactors
+  // for the next. CG multiplies by the current H, so the kept factor changes how fast it
+  // converges, not where to. 0 = factor and solve exactly at every step.
+  int refactor_cg = 0;
+  int cg_iterations = 30;
+  double cg_rel_tol = 1e-3;
 };
 
 struct NewtonResult {
@@ -51,6 +59,14 @@ NewtonResult newton_descent(const NewtonValue& f, const NewtonDirection& directi
 // indefinite (rounding) until it factors.
 void factor_shifted(BlockHessian& H, SparseCholesky& chol, NewtonResult& res);
 
+// Conjugate gradients on A d = -g from d = 0, preconditioned by M (each given as its
+// product with a vector): at most max_iterations, until r'Mr has fallen by rel_tol^2. Stops
+// early, keeping the iterate, where A shows no positive curvature (rounding on a
+// semi-definite A). Returns the iterations.
+using LinearProduct = std::function<void(const Eigen::VectorXd& in, Eigen::VectorXd& out)>;
+int preconditioned_cg(const LinearProduct& A, const LinearProduct& M, const Eigen::VectorXd& g, Eigen::VectorXd& d,
+                      int max_iterations, double rel_tol);
+
 class ProjectedNewton {
  public:
   ProjectedNewton() = default;
@@ -66,6 +82,7 @@ class ProjectedNewton {
  private:
   BlockHessian H_;
   SparseCholesky chol_{SparseCholesky::Method::Supernodal, SparseCholesky::Ordering::NestedDissection};
+  bool factored_ = false, refactor_ = true;  // NewtonOptions::refactor_cg: a factor held; must refactor
 };
 
 }  // namespace shapemap
