@@ -17,6 +17,7 @@ NewtonResult CoupledNewton::minimize(const NewtonValue& f, const CoupledHessian&
   const int n1 = size1(), n2 = size2();
   if (x.size() != n1 + n2) throw Error("CoupledNewton: x has the wrong length");
   cg_total_ = 0;
+  bool refactor = true;  // factors are kept within one call (one objective) only
   NewtonDirection newton = [&](const Eigen::VectorXd& z, const Eigen::VectorXd& g, Eigen::VectorXd& d,
                                NewtonResult& res) {
     auto t = Clock::now();
@@ -24,10 +25,9 @@ NewtonResult CoupledNewton::minimize(const NewtonValue& f, const CoupledHessian&
     H2_.set_zero();
     hess(z, H1_, H2_, C_);
     res.seconds_hessian += seconds_since(t);
-    if (!factored_ || refactor_ || opt.newton.refactor_cg <= 0) {
+    if (refactor || opt.newton.refactor_cg <= 0) {
       if (n1 > 0) factor_shifted(H1_, chol1_, res);
       if (n2 > 0) factor_shifted(H2_, chol2_, res);
-      factored_ = true;
     }
     t = Clock::now();
     if (C_.rows() != n1 || C_.cols() != n2) throw Error("CoupledNewton: the coupling block has the wrong size");
@@ -44,7 +44,7 @@ NewtonResult CoupledNewton::minimize(const NewtonValue& f, const CoupledHessian&
     // PCG on [H1 C; C^T H2] d = -g from d = 0.
     const int k = preconditioned_cg(apply, precondition, g, d, opt.newton.cg_iterations, opt.newton.cg_rel_tol);
     cg_total_ += k;
-    refactor_ = k > opt.newton.refactor_cg;
+    refactor = k > opt.newton.refactor_cg;
     res.seconds_solve += seconds_since(t);
   };
   return newton_descent(f, newton, x, opt.newton);

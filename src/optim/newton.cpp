@@ -153,6 +153,7 @@ ProjectedNewton::ProjectedNewton(BlockHessian pattern) : H_(std::move(pattern)) 
 NewtonResult ProjectedNewton::minimize(const NewtonValue& f, const NewtonHessian& hess,
                                        Eigen::VectorXd& x, const NewtonOptions& opt) {
   if (x.size() != 3 * H_.num_free()) throw Error("ProjectedNewton: x has the wrong length");
+  bool refactor = true;  // a factor is kept within one call (one objective) only
   // Newton direction: H d = -g, H positive semi-definite (shifted when it does not factor).
   NewtonDirection newton = [&](const Eigen::VectorXd& z, const Eigen::VectorXd& g, Eigen::VectorXd& d,
                                NewtonResult& res) {
@@ -160,10 +161,9 @@ NewtonResult ProjectedNewton::minimize(const NewtonValue& f, const NewtonHessian
     H_.set_zero();
     hess(z, H_);
     res.seconds_hessian += seconds_since(t);
-    if (opt.refactor_cg <= 0 || !factored_ || refactor_) {
+    if (refactor || opt.refactor_cg <= 0) {
       factor_shifted(H_, chol_, res);
-      factored_ = true;
-      refactor_ = false;
+      refactor = false;
       t = Clock::now();
       d = -chol_.solve(g);
     } else {
@@ -171,7 +171,7 @@ NewtonResult ProjectedNewton::minimize(const NewtonValue& f, const NewtonHessian
       const int k = preconditioned_cg([&](const Eigen::VectorXd& p, Eigen::VectorXd& q) { q = H_.multiply(p); },
                                       [&](const Eigen::VectorXd& r, Eigen::VectorXd& s) { s = chol_.solve(r); }, g, d,
                                       opt.cg_iterations, opt.cg_rel_tol);
-      refactor_ = k > opt.refactor_cg;
+      refactor = k > opt.refactor_cg;
     }
     res.seconds_solve += seconds_since(t);
   };

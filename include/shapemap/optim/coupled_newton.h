@@ -44,7 +44,6 @@ class CoupledNewton {
   SparseCholesky chol2_{SparseCholesky::Method::Supernodal, SparseCholesky::Ordering::NestedDissection};
   Eigen::SparseMatrix<double> C_;
   int cg_total_ = 0;
-  bool factored_ = false, refactor_ = true;  // factors held; the next step must refactor
 };
 
 }  // namespace shapemap

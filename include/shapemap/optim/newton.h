@@ -26,7 +26,7 @@ struct NewtonOptions {
   // than the descent it allows).
   int max_expansions = 0;
   // ProjectedNewton, > 0: a factor of H is kept as the preconditioner of conjugate gradients
-  // on H d = -g in later steps (and later minimize calls) while CG needs at most this many
+  // on H d = -g in the later steps of the same minimize call while CG needs at most this many
   // iterations (cg_iterations at most, to cg_rel_tol); a step whose CG needs more refactors
   // for the next. CG multiplies by the current H, so the kept factor changes how fast it
   // converges, not where to. 0 = factor and solve exactly at every step.
@@ -82,7 +82,6 @@ class ProjectedNewton {
  private:
   BlockHessian H_;
   SparseCholesky chol_{SparseCholesky::Method::Supernodal, SparseCholesky::Ordering::NestedDissection};
-  bool factored_ = false, refactor_ = true;  // NewtonOptions::refactor_cg: a factor held; must refactor
 };
 
 }  // namespace shapemap

@@ -47,14 +47,13 @@ struct SymmetricVolumeMapOptions {
   // while the weights still change: stage 4 then ends on its decrease rule on the real
   // bench pairs instead of its 50-iteration cap (docs/methods.md); 0 = newton_iterations.
   int newton_iterations_final = 10;
-  // Ours (issue 19, speed): the joint X-steps keep the Cholesky factors of their Hessian
-  // blocks as the conjugate-gradient preconditioner of later steps while CG needs at most
-  // this many iterations, and refactor after a step that needs more (NewtonOptions::
-  // refactor_cg). On cat -> lion stage 4 factored 13.8 s of its 31.5 s; with 12: 1.3 s of
-  // 21.8 s, the same iterations, metrics as good (docs/methods.md). The landing's smaller
-  // solves factor at every step (kept factors there: 3 s saved, d^max A -> B 0.81 -> 1.0).
-  // 0 = factor every step.
-  int newton_refactor_cg = 12;
+  // Ours (issue 19, speed; off by default): > 0 lets each joint X-step keep the Cholesky
+  // factors of its Hessian blocks as the conjugate-gradient preconditioner of its later
+  // Newton steps while CG needs at most this many iterations (NewtonOptions::refactor_cg).
+  // On cat -> lion with 12, stage 4 took 22.7 s instead of 31.5 s (factor 5.4 s instead of
+  // 13.8), metrics as good; on airplane -> bird the run ended with 5 / 7 inverted tets
+  // instead of 1 / 0 and its landing took 678 s instead of 125 s (docs/methods.md).
+  int newton_refactor_cg = 0;
   double alpha = 0.5;          // Eq. 25, Sec. 5.5: rigidity (ARAP) vs reversibility (E_R)
   double gamma = 25.0;         // Eq. 25, Sec. 5.5: weight of the projection term E_P
   double beta_start = 0.25;    // Sec. 4.4: E_Q weight at the first iteration ...
