@@ -20,6 +20,7 @@
 //   tool_bench_util get FILE.json POINTER...
 //       The values at the JSON pointers (e.g. /metrics/D_V/mean), tab-separated on one
 //       line ("-" for a missing one); numbers with 4 significant digits. For bench scripts.
+#include "shapemap/openmp_policy.h"
 #include "shapemap/io.h"
 #include "shapemap/maps.h"
 #include <nlohmann/json.hpp>
@@ -435,6 +436,7 @@ int usage() {
 }  // namespace
 
 int main(int argc, char** argv) {
+  shapemap::use_passive_openmp_wait(argv);  // as the CLI runs (openmp_policy.h)
   if (argc < 2) return usage();
   const std::string cmd = argv[1];
   std::vector<std::string> args(argv + 2, argv + argc);

@@ -8,6 +8,7 @@
 //  - timing: one pair of about BIM_VERTICES (12500) vertices with its stage breakdown;
 //    target <= 10 s total.
 // Environment also: BIM_REVERSE=1 (BIMOptions::reverse_candidates).
+#include "shapemap/openmp_policy.h"
 #include "shapemap/eval/surface_metrics.h"
 #include "shapemap/generate.h"
 #include "shapemap/maps.h"
@@ -91,6 +92,7 @@ bool timing() {
 }  // namespace
 
 int main(int argc, char** argv) {
+  shapemap::use_passive_openmp_wait(argv);  // as the CLI runs (openmp_policy.h)
   const std::string which = argc > 1 ? argv[1] : "all";
   if (which != "all" && which != "quality" && which != "timing") {
     std::fprintf(stderr, "usage: tool_bim_bench [all|quality|timing]\n");

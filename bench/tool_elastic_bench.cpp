@@ -15,6 +15,7 @@
 // SHAPEMAP_ELASTIC_RAMP_F_TOL (ElasticOptions::inner_f_tol_ramp, default 0),
 // SHAPEMAP_ELASTIC_ETA, SHAPEMAP_ELASTIC_ENERGY_TOL, SHAPEMAP_ELASTIC_ANCHORS (default 1: the speed runs
 // include the feature anchors as surface-map runs them; 0: none).
+#include "shapemap/openmp_policy.h"
 #include "shapemap/eval/surface_distortion.h"
 #include "shapemap/eval/surface_metrics.h"
 #include "shapemap/generate.h"
@@ -237,6 +238,7 @@ bool quality_vs_bim() {
 }  // namespace
 
 int main(int argc, char** argv) {
+  shapemap::use_passive_openmp_wait(argv);  // as the CLI runs (openmp_policy.h)
   const std::string which = argc > 1 ? argv[1] : "all";
   if (which != "all" && which != "speed5k" && which != "speed10k" && which != "quality") {
     std::fprintf(stderr, "usage: tool_elastic_bench [all|speed5k|speed10k|quality]\n");

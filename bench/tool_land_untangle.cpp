@@ -6,6 +6,7 @@
 // inverted tets before and after, the largest move over the target's bounding-box diagonal,
 // and the time. Exit 1 when the result inverts more tets than the input.
 // Usage: tool_land_untangle A.vtk B.vtk map_AB.txt [--rings R (the most rings: 1, 2, 4, ..., R)] [-o map_out.txt]
+#include "shapemap/openmp_policy.h"
 #include "shapemap/adjacency.h"
 #include "shapemap/io.h"
 #include "shapemap/maps.h"
@@ -20,6 +21,7 @@
 using namespace shapemap;
 
 int main(int argc, char** argv) {
+  shapemap::use_passive_openmp_wait(argv);  // as the CLI runs (openmp_policy.h)
   if (argc < 4) {
     std::fprintf(stderr, "usage: tool_land_untangle A.vtk B.vtk map_AB.txt [--rings R] [-o map_out.txt]\n");
     return 2;

@@ -11,6 +11,7 @@
 // (--reverse-weight W, --tether T: UntangleOptions::reverse_weight / tether of every stage)
 // (--sliver-mips: stage 4's threshold, 0 skips stage 4)
 // (-o: writes the resulting map_AB.txt and map_BA.txt there, inputs' numbering).
+#include "shapemap/openmp_policy.h"
 #include "shapemap/eval/surface_distortion.h"
 #include "shapemap/io.h"
 #include "shapemap/repair.h"
@@ -41,6 +42,7 @@ double round_trip(const TriMesh& A, const TriMesh& B, const BarycentricMap& P, c
 }  // namespace
 
 int main(int argc, char** argv) {
+  shapemap::use_passive_openmp_wait(argv);  // as the CLI runs (openmp_policy.h)
   if (argc < 5) {
     std::fprintf(stderr, "usage: tool_untangle_bench A B map_AB map_BA [--no-wide] [--no-bridges] [--sliver-mips M] "
                  "[--passes N] [--reverse-weight W] [--tether T] [-o DIR]\n");

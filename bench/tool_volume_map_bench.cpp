@@ -6,6 +6,7 @@
 // SHAPEMAP_VOLUME_INIT=auto uses the automatic surface-map initialization instead. Prints
 // Table 3 metrics per direction, the stage breakdown, wall time and peak memory, then
 // PASS/FAIL per target; the exit code is 1 when a target is missed.
+#include "shapemap/openmp_policy.h"
 #include "shapemap/eval/volume_metrics.h"
 #include "shapemap/generate.h"
 #include "shapemap/geometry/sampling.h"
@@ -41,7 +42,8 @@ bool meets_quality(const VolumeMapMetrics& m) {
 
 }  // namespace
 
-int main() {
+int main(int, char** argv) {
+  shapemap::use_passive_openmp_wait(argv);  // as the CLI runs (openmp_policy.h)
   int quality_pass = 0, speed_pass = 0, runs = 0;
   const int seeds = env_int("SHAPEMAP_VOLUME_SEEDS", 5);
   const int tets = env_int("SHAPEMAP_VOLUME_TETS", 30000);
