@@ -125,6 +125,30 @@ Springs make_springs(unsigned seed) {
   for (int i = 0; i < s.P.size(); ++i) s.P(i) = g(rng);
   return s;
 }
+// Springs' value and Hessian over the free rows of X (the others held at X's values).
+struct FreeRows {
+  const Springs& s;
+  std::vector<int> free;
+  Eigen::MatrixXd X, G;
+  void scatter(const Eigen::VectorXd& z) {
+    for (size_t q = 0; q < free.size(); ++q) X.row(free[q]) = z.segment<3>(3 * q).transpose();
+  }
+  NewtonValue value() {
+    return [this](const Eigen::VectorXd& z, Eigen::VectorXd* g) {
+      scatter(z);
+      const double v = s.value(X, g ? &G : nullptr);
+      if (g)
+        for (size_t q = 0; q < free.size(); ++q) g->segment<3>(3 * q) = G.row(free[q]).transpose();
+      return v;
+    };
+  }
+  NewtonHessian hessian() {
+    return [this](const Eigen::VectorXd& z, BlockHessian& H) {
+      scatter(z);
+      s.hessian(X, H);
+    };
+  }
+};
 }  // namespace
 
 TEST(ProjectedNewton, ConvergesQuadraticallyAndHoldsFixedVertices) {
@@ -133,21 +157,12 @@ TEST(ProjectedNewton, ConvergesQuadraticallyAndHoldsFixedVertices) {
   X.row(2) << 5, 5, 5;  // fixed
   const std::vector<int> free = {0, 1, 3, 4};
   ProjectedNewton pn(BlockHessian(s.T, 5, free));
-  Eigen::MatrixXd Xf = X, G;
-  auto scatter = [&](const Eigen::VectorXd& z) {
-    for (int q = 0; q < 4; ++q) Xf.row(free[q]) = z.segment<3>(3 * q).transpose();
-  };
-  NewtonValue f = [&](const Eigen::VectorXd& z, Eigen::VectorXd* g) {
-    scatter(z);
-    const double v = s.value(Xf, g ? &G : nullptr);
-    if (g)
-      for (int q = 0; q < 4; ++q) g->segment<3>(3 * q) = G.row(free[q]).transpose();
-    return v;
-  };
-  NewtonHessian h = [&](const Eigen::VectorXd& z, BlockHessian& H) {
-    scatter(z);
-    s.hessian(Xf, H);
-  };
+  FreeRows fr{s, free, X, {}};
+  Eigen::MatrixXd& Xf = fr.X;
+  Eigen::MatrixXd G;
+  auto scatter = [&](const Eigen::VectorXd& z) { fr.scatter(z); };
+  const NewtonValue f = fr.value();
+  const NewtonHessian h = fr.hessian();
   Eigen::VectorXd x = Eigen::VectorXd::Zero(12);
   NewtonOptions o;
   o.max_iterations = 50;
@@ -203,22 +218,10 @@ TEST(ProjectedNewton, ConvergesQuadraticallyAndHoldsFixedVertices) {
 TEST(ProjectedNewton, KeptFactorPreconditionsCGToTheSameMinimizer) {
   const Springs s = make_springs(5);
   const std::vector<int> free = {0, 1, 3, 4};
-  Eigen::MatrixXd Xf = Eigen::MatrixXd::Zero(5, 3), G;
-  Xf.row(2) << 2, -1, 3;  // fixed
-  auto scatter = [&](const Eigen::VectorXd& z) {
-    for (int q = 0; q < 4; ++q) Xf.row(free[q]) = z.segment<3>(3 * q).transpose();
-  };
-  NewtonValue f = [&](const Eigen::VectorXd& z, Eigen::VectorXd* g) {
-    scatter(z);
-    const double v = s.value(Xf, g ? &G : nullptr);
-    if (g)
-      for (int q = 0; q < 4; ++q) g->segment<3>(3 * q) = G.row(free[q]).transpose();
-    return v;
-  };
-  NewtonHessian h = [&](const Eigen::VectorXd& z, BlockHessian& H) {
-    scatter(z);
-    s.hessian(Xf, H);
-  };
+  FreeRows fr{s, free, Eigen::MatrixXd::Zero(5, 3), {}};
+  fr.X.row(2) << 2, -1, 3;  // fixed
+  const NewtonValue f = fr.value();
+  const NewtonHessian h = fr.hessian();
   NewtonOptions o;
   o.max_iterations = 60;
   o.grad_tol = 1e-9;
@@ -393,27 +396,25 @@ TEST(CoupledNewton, SolvesTheJointSystemWhereSeparateStepsCrawl) {
   }
   // The quartic pull: converges to the gradient tolerance in few steps.
   ts.set_quartic(true);
-  CoupledNewton cn(BlockHessian(ts.a.T, 5, all), BlockHessian(ts.b.T, 5, all));
-  Eigen::VectorXd z = Eigen::VectorXd::Zero(30);
+  const CoupledHessian tied = [&](const Eigen::VectorXd& x, BlockHessian& H1, BlockHessian& H2,
+                                  Eigen::SparseMatrix<double>& C) { ts.hessian(x, H1, H2, C, true); };
+  auto run = [&](Eigen::VectorXd& z) {
+    CoupledNewton cn(BlockHessian(ts.a.T, 5, all), BlockHessian(ts.b.T, 5, all));
+    z = Eigen::VectorXd::Zero(30);
+    return cn.minimize(f, tied, z, o);
+  };
   o.newton.max_iterations = 40;
   o.newton.grad_tol = 1e-9;
   o.newton.cg_rel_tol = 1e-6;
-  const NewtonResult r = cn.minimize(
-      f, [&](const Eigen::VectorXd& x, BlockHessian& H1, BlockHessian& H2,
-             Eigen::SparseMatrix<double>& C) { ts.hessian(x, H1, H2, C, true); },
-      z, o);
+  Eigen::VectorXd z, zk;
+  const NewtonResult r = run(z);
   EXPECT_EQ(r.stop, "gradient");
   EXPECT_LT(r.iterations, 30);
   // Kept factors (NewtonOptions::refactor_cg): the same minimizer, fewer factorizations.
-  CoupledNewton ck(BlockHessian(ts.a.T, 5, all), BlockHessian(ts.b.T, 5, all));
-  Eigen::VectorXd zk = Eigen::VectorXd::Zero(30);
   o.newton.refactor_cg = 40;
   o.newton.cg_iterations = 100;
   o.newton.cg_rel_tol = 1e-8;
-  const NewtonResult rk = ck.minimize(
-      f, [&](const Eigen::VectorXd& x, BlockHessian& H1, BlockHessian& H2,
-             Eigen::SparseMatrix<double>& C) { ts.hessian(x, H1, H2, C, true); },
-      zk, o);
+  const NewtonResult rk = run(zk);
   EXPECT_EQ(rk.stop, "gradient");
   EXPECT_LT(rk.factorizations, 2 * rk.iterations);  // two blocks per refactorization
   EXPECT_LT((zk - z).norm(), 1e-6);
