@@ -367,9 +367,12 @@ double ShellEnergy::evaluate(const double* y, double* grad, ShellEnergyTerms* te
   return total;
 }
 
-void ShellEnergy::freeze_mask(const double* y) {
+bool ShellEnergy::freeze_mask(const double* y) {
   const int m = int(F_.rows()), k = int(E_.rows());
   frozen_ = false;
+  const bool had = int(frozen_adm_.size()) == k && frozen_once_;
+  std::vector<char> previous;
+  if (had) previous.swap(frozen_adm_);
   std::vector<char> deg(m);
   for (int f = 0; f < m; ++f) {
     const V3 x0 = row3(y, F_(f, 0)), x1 = row3(y, F_(f, 1)), x2 = row3(y, F_(f, 2));
@@ -379,6 +382,8 @@ void ShellEnergy::freeze_mask(const double* y) {
   frozen_adm_.assign(k, 0);
   for (int e = 0; e < k; ++e) frozen_adm_[e] = !(deg[E_(e, 0)] || deg[E_(e, 1)]);
   frozen_ = true;
+  frozen_once_ = true;
+  return !had || previous != frozen_adm_;
 }
 
 double ShellEnergy::evaluate(const Eigen::MatrixXd& Y, Eigen::MatrixXd* G,

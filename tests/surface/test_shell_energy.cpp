@@ -277,6 +277,31 @@ TEST(ShellEnergy, SerialAndParallelPathsIdenticalAndGradient) {
   W.unfreeze_mask();
 }
 
+// freeze_mask says whether the admissible set changed since the previous call, which the
+// elastic Y steps rely on to keep the shell part of their last evaluation: the first call,
+// and a call after a face collapsed or reopened, report a change; the same set does not.
+TEST(ShellEnergy, FreezeMaskReportsWhetherTheSetChanged) {
+  Eigen::MatrixXd V;
+  Eigen::MatrixXi F;
+  test_sphere(V, F);
+  ShellEnergy W(V, F);
+  using RowY = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
+  RowY Y = 1.2 * V;
+  EXPECT_TRUE(W.freeze_mask(Y.data()));   // first call
+  EXPECT_FALSE(W.freeze_mask(Y.data()));  // same configuration
+  RowY Y2 = Y;
+  Y2.row(0) *= 1.01;                      // moved, no face collapsed: same set
+  EXPECT_FALSE(W.freeze_mask(Y2.data()));
+  const Eigen::RowVector3d mid = 0.5 * (Y.row(F(0, 1)) + Y.row(F(0, 2)));
+  Y2 = Y;
+  Y2.row(F(0, 0)) = mid;                  // face 0 collapses: its edges leave the set
+  EXPECT_TRUE(W.freeze_mask(Y2.data()));
+  EXPECT_FALSE(W.freeze_mask(Y2.data()));
+  EXPECT_TRUE(W.freeze_mask(Y.data()));   // reopened
+  W.unfreeze_mask();
+  EXPECT_FALSE(W.freeze_mask(Y.data()));  // unfreezing does not forget the set
+}
+
 // Issue 20: log_eps = 0 makes -log det G (Eq. 7) an unbounded barrier: exact gradient on a
 // strongly compressed shell, and the energy grows without bound as one triangle collapses
 // (the linear extension of Sec. 4.1 stays bounded).

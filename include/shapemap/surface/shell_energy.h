@@ -67,7 +67,9 @@ class ShellEnergy {
   // evaluations use this set instead of recomputing it, so the energy is continuous along
   // a line search (Sec. 5.2 updates the set between quasi-Newton iterations, not within
   // them). A frozen-admissible edge whose face collapses exactly makes the energy +inf.
-  void freeze_mask(const double* y);
+  // Returns true when the set differs from the one frozen by the previous call (or there
+  // was none), so that a caller may keep an evaluation made under the previous set.
+  bool freeze_mask(const double* y);
   void unfreeze_mask() { frozen_ = false; }
   void set_weights(double alpha, double eta) { opt_.alpha = alpha; opt_.eta = eta; }
   const ShellEnergyOptions& options() const { return opt_; }
@@ -116,6 +118,7 @@ class ShellEnergy {
   std::vector<Slot> slots_;           // 3m
   bool frozen_ = false;
   std::vector<char> frozen_adm_;    // k, admissible set of freeze_mask()
+  bool frozen_once_ = false;        // freeze_mask() was called (frozen_adm_ is its set)
 };
 
 // Membrane density W of Eq. 7 with the linear extension, as a function of
