@@ -371,19 +371,22 @@ bool ShellEnergy::freeze_mask(const double* y) {
   const int m = int(F_.rows()), k = int(E_.rows());
   frozen_ = false;
   const bool had = int(frozen_adm_.size()) == k && frozen_once_;
-  std::vector<char> previous;
-  if (had) previous.swap(frozen_adm_);
-  std::vector<char> deg(m);
+  std::vector<char>& deg = fdeg_;  // scratch (evaluate() rewrites it)
   for (int f = 0; f < m; ++f) {
     const V3 x0 = row3(y, F_(f, 0)), x1 = row3(y, F_(f, 1)), x2 = row3(y, F_(f, 2));
     const double Nlen = (x1 - x0).cross(x2 - x0).norm();
     deg[f] = !(Nlen > opt_.degenerate_tol * nref_(f)) || nref_(f) == 0;
   }
-  frozen_adm_.assign(k, 0);
-  for (int e = 0; e < k; ++e) frozen_adm_[e] = !(deg[E_(e, 0)] || deg[E_(e, 1)]);
+  frozen_adm_.resize(k);
+  bool changed = !had;
+  for (int e = 0; e < k; ++e) {
+    const char adm = !(deg[E_(e, 0)] || deg[E_(e, 1)]);
+    changed = changed || adm != frozen_adm_[e];
+    frozen_adm_[e] = adm;
+  }
   frozen_ = true;
   frozen_once_ = true;
-  return !had || previous != frozen_adm_;
+  return changed;
 }
 
 double ShellEnergy::evaluate(const Eigen::MatrixXd& Y, Eigen::MatrixXd* G,
