@@ -19,6 +19,7 @@
 
 #include <algorithm>
 #include <exception>
+#include <system_error>
 #include <functional>
 #include <thread>
 #include <utility>
@@ -671,14 +672,19 @@ class OverlappedJob {
       job();
       return;
     }
-    thread_ = std::thread([this, job = std::move(job)] {
+    auto run = [this, job] {
       omp_set_num_threads(1);  // its loops in this thread: no second OpenMP team
       try {
         job();
       } catch (...) {
         error_ = std::current_exception();
       }
-    });
+    };
+    try {
+      thread_ = std::thread(run);
+    } catch (const std::system_error&) {  // no thread to be had: in turn
+      job();
+    }
   }
   void wait() {
     if (thread_.joinable()) thread_.join();

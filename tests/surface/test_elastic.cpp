@@ -556,6 +556,30 @@ TEST(Elastic, CollapseGuardNeverReturnsAWorseMap) {
   EXPECT_EQ(r6.guard_AB.returned, r6.guard_AB.last_bad <= bad0_AB ? ElasticReturned::Last : ElasticReturned::EarlierIterate);
   EXPECT_LE(bad(A, B, r6.map_AB), bad0_AB);
   EXPECT_LE(bad(B, A, r6.map_BA), bad0_BA);
+  // Side B's counts of an iteration are taken during the next iteration's Y step (on a second
+  // thread when there are two): they are those of that iteration's maps (raw's first
+  // iteration is the same computation, counted after its loop), and the log is the same with
+  // one thread (counts in turn) as with two.
+  auto same_counts = [](const FoldCounts& a, const FoldCounts& b) {
+    return a.flipped == b.flipped && a.degenerate == b.degenerate;
+  };
+  EXPECT_TRUE(same_counts(r6.history.front().Q_folds, raw.history.front().Q_folds));
+  EXPECT_TRUE(same_counts(r6.history.front().Yt_folds, raw.history.front().Yt_folds));
+  EXPECT_TRUE(same_counts(r6.history.front().P_folds, raw.history.front().P_folds));
+  const int threads = omp_get_max_threads();
+  omp_set_num_threads(threads >= 2 ? 1 : 2);
+  const ElasticResult r6b = elastic_correspondence(A, B, initAB, initBA, o);
+  omp_set_num_threads(threads);
+  ASSERT_EQ(r6b.history.size(), r6.history.size());
+  for (size_t k = 0; k < r6.history.size(); ++k) {
+    const ElasticIterate &x = r6.history[k], &y = r6b.history[k];
+    EXPECT_TRUE(same_counts(x.P_folds, y.P_folds) && same_counts(x.Y_folds, y.Y_folds) &&
+                same_counts(x.Q_folds, y.Q_folds) && same_counts(x.Yt_folds, y.Yt_folds))
+        << "iteration " << k;
+    EXPECT_EQ(x.energy, y.energy);
+  }
+  EXPECT_EQ(r6b.guard_BA.iteration, r6.guard_BA.iteration);
+  EXPECT_EQ(r6b.first_Q_collapse.iteration, r6.first_Q_collapse.iteration);
 }
 
 // fold_counts agrees with surface_distortion's counts (it is what the guard uses).
