@@ -114,6 +114,14 @@ struct Side {
   Eigen::VectorXd shell_g, shell_g_new;
   double shell_W = 0;
   bool shell_valid = false;
+  // The reversibility term's rows gamma m~_j |Q_j Y - X~_j|^2 of the Y step (Q = the other
+  // side's P, fixed during the step), packed: corners of Q_j's face, its barycentric
+  // coordinates, X~_j and m~_j, read in order by every evaluation (pack_reversibility_rows).
+  struct ReversibilityRow {
+    int c[3];
+    double b[3], x[3], m;
+  };
+  std::vector<ReversibilityRow> rev_rows;
   // H0 = (theta K)^-1 of the Y steps (ElasticOptions::precondition_stiffness): K, its
   // diagonal's scratch and the scale theta of the newest curvature pair
   ElasticPreconditioner pre;
@@ -297,6 +305,23 @@ struct EnergyParts {
   double deformation = 0, mismatch = 0, reversibility = 0;
 };
 
+// Side s's reversibility rows for a Y step against side t (Side::rev_rows): once per step
+// instead of gathering Q's rows, faces and X~ from three column-major arrays per evaluation.
+void pack_reversibility_rows(Side& s, const Side& t) {
+  const BarycentricMap& Q = t.P;
+  s.rev_rows.resize(size_t(Q.size()));
+  for (int j = 0; j < Q.size(); ++j) {
+    Side::ReversibilityRow& r = s.rev_rows[size_t(j)];
+    const int f = Q.elem(j);
+    for (int k = 0; k < 3; ++k) {
+      r.c[k] = s.F(f, k);
+      r.b[k] = Q.bary(j, k);
+      r.x[k] = t.X(j, k);
+    }
+    r.m = t.mass(j);
+  }
+}
+
 // Terms of E (Eq. 6) that involve the side's Y:
 //   W_def(X, Y) + beta |P X~ - Y|_X^2 + gamma |Q Y - X~|_X~^2
 // with Q = the target side's projection (target vertices -> source faces).
@@ -350,21 +375,18 @@ class DeformationObjective {
       // gamma |Q Y - X~|_X~^2 with Q = the target's map (its vertices j -> our faces),
       // gradient 2 gamma Q^T M~ (Q Y - X~): per row j, gather Q Y, scatter to the face's
       // corners (serial, fixed order).
-      const BarycentricMap& Q = t_.P;
-      const Eigen::MatrixXi& F = s_.F;
-      for (int j = 0; j < Q.size(); ++j) {
-        const int f = Q.elem(j);
-        const double b0 = Q.bary(j, 0), b1 = Q.bary(j, 1), b2 = Q.bary(j, 2);
-        const double* y0 = y + 3 * F(f, 0);
-        const double* y1 = y + 3 * F(f, 1);
-        const double* y2 = y + 3 * F(f, 2);
+      for (const Side::ReversibilityRow& q : s_.rev_rows) {
+        const double b0 = q.b[0], b1 = q.b[1], b2 = q.b[2];
+        const double* y0 = y + 3 * q.c[0];
+        const double* y1 = y + 3 * q.c[1];
+        const double* y2 = y + 3 * q.c[2];
         double r[3];
-        for (int k = 0; k < 3; ++k) r[k] = b0 * y0[k] + b1 * y1[k] + b2 * y2[k] - t_.X(j, k);
-        const double mj = t_.mass(j), w = 2 * gamma_ * mj;
+        for (int k = 0; k < 3; ++k) r[k] = b0 * y0[k] + b1 * y1[k] + b2 * y2[k] - q.x[k];
+        const double mj = q.m, w = 2 * gamma_ * mj;
         rev += mj * (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
-        double* g0 = gr + 3 * F(f, 0);
-        double* g1 = gr + 3 * F(f, 1);
-        double* g2 = gr + 3 * F(f, 2);
+        double* g0 = gr + 3 * q.c[0];
+        double* g1 = gr + 3 * q.c[1];
+        double* g2 = gr + 3 * q.c[2];
         for (int k = 0; k < 3; ++k) {
           const double wr = w * r[k];
           g0[k] += b0 * wr;
@@ -428,6 +450,7 @@ void update_preconditioner(Side& s, const Side& t, double beta, double gamma, bo
 int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bijective,
                      const ElasticOptions& opt, double f_tol, EnergyParts& parts, int& evaluations) {
   const int n = int(s.X.rows());
+  if (bijective) pack_reversibility_rows(s, t);
   DeformationObjective obj(s, t, beta, gamma, bijective);
   ElasticLbfgs& L = s.lbfgs;
   if (L.x.size() != 3 * n) L.init(3 * n, opt.lbfgs_memory);
@@ -998,12 +1021,14 @@ double elastic_energy(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F,
   }
   EnergyParts pa, pb;
   Eigen::VectorXd x = Eigen::Map<const Eigen::VectorXd>(a.Y.data(), a.Y.size()), g(x.size());
+  if (bij) pack_reversibility_rows(a, b);
   DeformationObjective oa(a, b, beta, gamma, bij);
   double E = oa(x, g);
   pa = oa.last;
   if (gY) *gY = Eigen::Map<const RowMat3>(g.data(), a.Y.rows(), 3);
   if (bij) {
     Eigen::VectorXd xt = Eigen::Map<const Eigen::VectorXd>(b.Y.data(), b.Y.size()), gt(xt.size());
+    pack_reversibility_rows(b, a);
     DeformationObjective ob(b, a, beta, gamma, bij);
     E += ob(xt, gt);
     pb = ob.last;
