@@ -447,6 +447,37 @@ void update_preconditioner(Side& s, const Side& t, double beta, double gamma, bo
   s.pre.update_diagonal(s.pre_diag, opt.precondition_refactor_tol);
 }
 
+// The Y step's Armijo backtracking along s.lbfgs.d from s.lbfgs.x (c1 = 1e-4), starting at
+// alpha; true with the accepted point in x_new, g_new (shell part in s.shell_g_new), f_new
+// and parts_new. Gives up after the first trial once the predicted decrease alpha |g.d| is
+// below min_decrease, or after 40 trials.
+bool backtrack(DeformationObjective& obj, Side& s, bool keep_orientation, double f, double gd,
+               double min_decrease, double& alpha, double& f_new, EnergyParts& parts_new, int& evaluations) {
+  ElasticLbfgs& L = s.lbfgs;
+  const double c1 = 1e-4;
+  for (int k = 0; k < 40 && gd < 0; ++k) {
+    if (k > 0 && alpha * -gd < min_decrease) break;
+    L.x_new.noalias() = L.x + alpha * L.d;
+    if (keep_orientation && turns_a_triangle(s.F, L.x.data(), L.x_new.data())) {
+      alpha *= 0.5;  // the step would pass a triangle through zero area: shorten it
+      continue;
+    }
+    f_new = obj(L.x_new, L.g_new, s.shell_g_new.data());
+    ++evaluations;
+    if (std::isfinite(f_new) && f_new <= f + c1 * alpha * gd) {
+      parts_new = obj.last;
+      return true;
+    }
+    double next = 0.5 * alpha;
+    if (std::isfinite(f_new)) {
+      const double curv = f_new - f - alpha * gd;  // > 0: Armijo failed
+      if (curv > 0) next = std::clamp(-gd * alpha * alpha / (2 * curv), 0.1 * alpha, 0.5 * alpha);
+    }
+    alpha = next;
+  }
+  return false;
+}
+
 int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bijective,
                      const ElasticOptions& opt, double f_tol, EnergyParts& parts, int& evaluations) {
   const int n = int(s.X.rows());
@@ -507,33 +538,11 @@ int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bij
       const bool from_memory = L.H.stored() > 0;
       if (opt.interpolate_initial_step)
         alpha = std::min(alpha, std::max(s.alpha_last, last_decrease > 0 ? 1.01 * 2 * last_decrease / -gd : 1.0));
-      const double c1 = 1e-4;
       const double min_decrease =
           f_tol > 0 ? f_tol * std::max(1.0, std::abs(f)) : 0.0;
-      bool ok = false;
       double f_new = f;
       EnergyParts p_new;
-      for (int k = 0; k < 40 && gd < 0; ++k) {
-        if (k > 0 && alpha * -gd < min_decrease) break;
-        L.x_new.noalias() = L.x + alpha * L.d;
-        if (opt.keep_orientation && turns_a_triangle(s.F, L.x.data(), L.x_new.data())) {
-          alpha *= 0.5;  // the step would pass a triangle through zero area: shorten it
-          continue;
-        }
-        f_new = obj(L.x_new, L.g_new, s.shell_g_new.data());
-        ++evaluations;
-        if (std::isfinite(f_new) && f_new <= f + c1 * alpha * gd) {
-          ok = true;
-          p_new = obj.last;
-          break;
-        }
-        double next = 0.5 * alpha;
-        if (std::isfinite(f_new)) {
-          const double curv = f_new - f - alpha * gd;  // > 0: Armijo failed
-          if (curv > 0) next = std::clamp(-gd * alpha * alpha / (2 * curv), 0.1 * alpha, 0.5 * alpha);
-        }
-        alpha = next;
-      }
+      const bool ok = backtrack(obj, s, opt.keep_orientation, f, gd, min_decrease, alpha, f_new, p_new, evaluations);
       if (!ok) {
         if (L.H.stored() > 0 && !restarted) {  // retry once from steepest descent
           L.reset();
@@ -830,11 +839,10 @@ void setup_direction_logs(const TriMesh& A, const TriMesh& B, const BarycentricM
 
 }  // namespace
 
-ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
-                                     const BarycentricMap& init_AB,
-                                     const BarycentricMap& init_BA, const ElasticOptions& opt) {
-  const auto t_start = Clock::now();
-  const bool bij = opt.model == ElasticModel::Bijective;
+namespace {
+// The inputs of elastic_correspondence: non-empty finite meshes, maps that fit them.
+void check_elastic_inputs(const TriMesh& A, const TriMesh& B, const BarycentricMap& init_AB,
+                          const BarycentricMap& init_BA, const ElasticOptions& opt, bool bij) {
   if (A.V.rows() < 3 || A.F.rows() < 1) throw InputError("A: empty mesh");
   if (B.V.rows() < 3 || B.F.rows() < 1) throw InputError("B: empty mesh");
   if (!A.V.allFinite()) throw InputError("A: non-finite vertex coordinates");
@@ -843,6 +851,31 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
   if (bij) validate_map(init_BA, B.num_vertices(), A.num_faces(), 3, "initial map B->A");
   if (opt.max_outer_iterations < 0 || opt.inner_max_iterations < 0)
     throw InputError("elastic: negative iteration count");
+}
+
+// Algorithm 1's start: P, Q from the initial maps, Y <- P X~, Y~ <- Q X.
+void start_from_maps(Side& a, Side& b, const BarycentricMap& init_AB, const BarycentricMap& init_BA, bool bij) {
+  a.P = init_AB;
+  sanitize(a.P);
+  apply_map(a.P, b.F, b.X, a.PXt);
+  a.Y = a.PXt;
+  if (bij) {
+    b.P = init_BA;
+    sanitize(b.P);
+    apply_map(b.P, a.F, a.X, b.PXt);
+    b.Y = b.PXt;
+  } else {
+    b.Y = b.X;  // unused
+  }
+}
+}  // namespace
+
+ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
+                                     const BarycentricMap& init_AB,
+                                     const BarycentricMap& init_BA, const ElasticOptions& opt) {
+  const auto t_start = Clock::now();
+  const bool bij = opt.model == ElasticModel::Bijective;
+  check_elastic_inputs(A, B, init_AB, init_BA, opt, bij);
 
   // Sec. 5.2 global scale (or Sec. 6.2 partial matching: no scaling, rescaled weights).
   Normalization na, nb;
@@ -873,19 +906,7 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
     set_anchors(a, b, opt.anchors.A, opt.anchors.B, opt.anchors.weight, opt.anchors.activation);
     if (bij) set_anchors(b, a, opt.anchors.B, opt.anchors.A, opt.anchors.weight, opt.anchors.activation);
   }
-  a.P = init_AB;
-  sanitize(a.P);
-  // Algorithm 1: Y <- P X~, Y~ <- Q X
-  apply_map(a.P, b.F, b.X, a.PXt);
-  a.Y = a.PXt;
-  if (bij) {
-    b.P = init_BA;
-    sanitize(b.P);
-    apply_map(b.P, a.F, a.X, b.PXt);
-    b.Y = b.PXt;
-  } else {
-    b.Y = b.X;  // unused
-  }
+  start_from_maps(a, b, init_AB, init_BA, bij);
 
   ElasticResult res;
   res.degenerate_faces_initial =

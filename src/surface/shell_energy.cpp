@@ -370,7 +370,7 @@ double ShellEnergy::evaluate(const double* y, double* grad, ShellEnergyTerms* te
 bool ShellEnergy::freeze_mask(const double* y) {
   const int m = int(F_.rows()), k = int(E_.rows());
   frozen_ = false;
-  const bool had = int(frozen_adm_.size()) == k && frozen_once_;
+  const bool had = frozen_once_;
   std::vector<char>& deg = fdeg_;  // scratch (evaluate() rewrites it)
   for (int f = 0; f < m; ++f) {
     const V3 x0 = row3(y, F_(f, 0)), x1 = row3(y, F_(f, 1)), x2 = row3(y, F_(f, 2));
