@@ -5,11 +5,16 @@
 // the factor during cholmod_solve, and a cholmod_common per call makes concurrent
 // solve() calls on one factor thread-safe (HeatGeodesics::distances relies on it).
 // compute()/factorize() must not run concurrently with anything else on the object.
-// Supernodal factorizations and solves call BLAS, and the serial OpenBLAS that
-// scripts/install-deps installs is not safe to call from two threads at once (a BIM test
-// with 8 threads gave a different map in 3 runs of 40; never with the reference BLAS):
-// those calls are serialized across all objects. Simplicial ones use no BLAS and run
-// concurrently.
+//
+// Supernodal factorizations and solves call BLAS. A serial OpenBLAS (Debian's
+// libopenblas0-serial, "SINGLE_THREADED") is not safe to call from two threads at once (a
+// BIM test with 8 threads gave a different map in 3 runs of 40; never with the reference
+// BLAS): with it, those calls are serialized across all objects. A threaded OpenBLAS (the
+// libopenblas0-pthread that scripts/install-deps installs) locks its buffers and is safe;
+// its own threads are then held to one, so the parallelism is ours (two factorizations at
+// once, `concurrent_factorizations()`) and results do not depend on its thread count.
+// Other BLAS libraries (the reference BLAS) are safe. Simplicial calls use no BLAS.
+// Symbolic analyses (METIS) are always serialized.
 //
 // CHOLMOD's supernodal code also opens OpenMP regions of its own, with a fixed team of 4
 // threads (num_threads(CHOLMOD_OMP_NUM_THREADS), which omp_set_num_threads and --threads
@@ -17,13 +22,16 @@
 // factorization, each waking 3 sleeping threads (the CLI's passive wait policy) on a
 // 2-core machine for work smaller than the wake-up. Measured on cat -> lion's volume map
 // (29.8k + 28.4k tets) with one thread: 3.4 million context switches, 20 s of system time,
-// 88.7 s; with those regions held to one thread, 170 and 2.8 s, 62.1 s. So these calls run
-// with OpenMP's active levels at 0 (every region one thread), under the BLAS lock (the
-// setting is process-wide, and the lock keeps the saves and restores from interleaving).
+// 88.7 s; with those regions held to one thread, 170 and 2.8 s, 62.1 s. So while any
+// supernodal call runs outside a parallel region, OpenMP's active levels are 0 (every region
+// one thread; the setting is process-wide, so it is counted: the first call saves and sets
+// it, the last restores it). Inside a parallel region nested regions are inactive already.
 #include "shapemap/geometry/sparse_cholesky.h"
 #include "shapemap/error.h"
 #include <Eigen/CholmodSupport>
+#include <dlfcn.h>
 #include <mutex>
+#include <optional>
 #include <omp.h>
 #include <string>
 
@@ -34,26 +42,75 @@ std::mutex& blas_mutex() {
   return m;
 }
 
-// Holds the BLAS lock (supernodal calls only) and, with it, OpenMP regions to one thread
-// for its lifetime (the note at the top).
+// The BLAS that CHOLMOD was loaded with, as OpenBLAS reports it (nullptr: not OpenBLAS, or
+// not found).
+void* openblas_symbol(const char* name) {
+  for (const char* lib : {"libopenblas.so.0", "libblas.so.3"})
+    if (void* h = dlopen(lib, RTLD_NOW | RTLD_NOLOAD)) {
+      void* f = dlsym(h, name);
+      dlclose(h);  // only drops the reference RTLD_NOLOAD took
+      if (f) return f;
+    }
+  return dlsym(RTLD_DEFAULT, name);
+}
+
+bool blas_is_thread_safe() {
+  static const bool safe = [] {
+    const auto get_parallel = reinterpret_cast<int (*)()>(openblas_symbol("openblas_get_parallel"));
+    if (!get_parallel) return true;            // the reference BLAS, or another library
+    if (get_parallel() == 0) return false;     // a serial OpenBLAS: unlocked buffers
+    if (const auto set = reinterpret_cast<void (*)(int)>(openblas_symbol("openblas_set_num_threads"))) set(1);
+    return true;
+  }();
+  return safe;
+}
+
+// OpenMP regions held to one thread while any supernodal call runs (the note at the top).
+class SerialRegions {
+ public:
+  SerialRegions() {
+    const std::lock_guard<std::mutex> g(mutex());
+    if (count()++ == 0) {
+      saved() = omp_get_max_active_levels();
+      omp_set_max_active_levels(0);
+    }
+  }
+  ~SerialRegions() {
+    const std::lock_guard<std::mutex> g(mutex());
+    if (--count() == 0) omp_set_max_active_levels(saved());
+  }
+  SerialRegions(const SerialRegions&) = delete;
+  SerialRegions& operator=(const SerialRegions&) = delete;
+
+ private:
+  static std::mutex& mutex() {
+    static std::mutex m;
+    return m;
+  }
+  static int& count() {
+    static int c = 0;
+    return c;
+  }
+  static int& saved() {
+    static int s = 0;
+    return s;
+  }
+};
+
+// A supernodal CHOLMOD call: the BLAS lock when the BLAS needs it (always for an analysis:
+// METIS), and OpenMP regions held to one thread (the note at the top).
 class SupernodalCall {
  public:
-  explicit SupernodalCall(bool supernodal) : lock_(blas_mutex(), std::defer_lock) {
+  SupernodalCall(bool supernodal, bool analysis) : lock_(blas_mutex(), std::defer_lock) {
     if (!supernodal) return;
-    lock_.lock();
-    if (omp_in_parallel()) return;  // nested regions are inactive already
-    levels_ = omp_get_max_active_levels();
-    omp_set_max_active_levels(0);
+    const bool safe = blas_is_thread_safe();  // first: holds a threaded OpenBLAS to one thread
+    if (analysis || !safe) lock_.lock();
+    if (!omp_in_parallel()) serial_.emplace();
   }
-  ~SupernodalCall() {
-    if (levels_ >= 0) omp_set_max_active_levels(levels_);
-  }
-  SupernodalCall(const SupernodalCall&) = delete;
-  SupernodalCall& operator=(const SupernodalCall&) = delete;
 
  private:
   std::unique_lock<std::mutex> lock_;
-  int levels_ = -1;
+  std::optional<SerialRegions> serial_;
 };
 }  // namespace
 
@@ -94,7 +151,7 @@ struct SparseCholesky::Impl {
       if (factor) cholmod_free_factor(&factor, &common);
       n = int(A.rows());
       {
-        const SupernodalCall call(common.supernodal != CHOLMOD_SIMPLICIAL);
+        const SupernodalCall call(common.supernodal != CHOLMOD_SIMPLICIAL, true);
         factor = cholmod_analyze(&view, &common);
       }
       if (!factor || common.status < CHOLMOD_OK)
@@ -105,7 +162,7 @@ struct SparseCholesky::Impl {
     if (!numeric_too) return;
     numeric = false;
     {
-      const SupernodalCall call(common.supernodal != CHOLMOD_SIMPLICIAL);
+      const SupernodalCall call(common.supernodal != CHOLMOD_SIMPLICIAL, false);
       cholmod_factorize(&view, factor, &common);
     }
     if (common.status == CHOLMOD_NOT_POSDEF || factor->minor < factor->n) {
@@ -136,7 +193,7 @@ struct SparseCholesky::Impl {
     b.dtype = CHOLMOD_DOUBLE;
     cholmod_dense* x = nullptr;
     {
-      const SupernodalCall call(factor->is_super);
+      const SupernodalCall call(factor->is_super, false);
       x = cholmod_solve(CHOLMOD_A, factor, &b, &c);
     }
     if (!x) {
@@ -190,6 +247,8 @@ Eigen::MatrixXd SparseCholesky::solve(const Eigen::MatrixXd& B) const {
   if (B.cols() > 0) impl_->run_solve(B.data(), int(B.cols()), X.data());
   return X;
 }
+
+bool SparseCholesky::concurrent_factorizations() { return blas_is_thread_safe(); }
 
 int SparseCholesky::rows() const { return impl_ ? impl_->n : 0; }
 

@@ -2,9 +2,11 @@
 #include "shapemap/optim/coupled_newton.h"
 #include "shapemap/error.h"
 #include "shapemap/timing.h"
+#include "shapemap/task_pair.h"
 #include <cmath>
 
 namespace shapemap {
+
 
 CoupledNewton::CoupledNewton(BlockHessian pattern1, BlockHessian pattern2)
     : H1_(std::move(pattern1)), H2_(std::move(pattern2)) {
@@ -18,6 +20,7 @@ NewtonResult CoupledNewton::minimize(const NewtonValue& f, const CoupledHessian&
   if (x.size() != n1 + n2) throw Error("CoupledNewton: x has the wrong length");
   cg_total_ = 0;
   bool refactor = true;  // factors are kept within one call (one objective) only
+  const bool parallel = factorizations_in_parallel();  // H1's and H2's factors and solves at once
   NewtonDirection newton = [&](const Eigen::VectorXd& z, const Eigen::VectorXd& g, Eigen::VectorXd& d,
                                NewtonResult& res) {
     auto t = Clock::now();
@@ -26,8 +29,12 @@ NewtonResult CoupledNewton::minimize(const NewtonValue& f, const CoupledHessian&
     hess(z, H1_, H2_, C_);
     res.seconds_hessian += seconds_since(t);
     if (refactor || opt.newton.refactor_cg <= 0) {
-      if (n1 > 0) factor_shifted(H1_, chol1_, res);
-      if (n2 > 0) factor_shifted(H2_, chol2_, res);
+      NewtonResult r1, r2;
+      t = Clock::now();
+      run_pair([&] { if (n1 > 0) factor_shifted(H1_, chol1_, r1); },
+               [&] { if (n2 > 0) factor_shifted(H2_, chol2_, r2); }, parallel);
+      res.factorizations += r1.factorizations + r2.factorizations;
+      res.seconds_factor += seconds_since(t);  // wall time of the two together
     }
     t = Clock::now();
     if (C_.rows() != n1 || C_.cols() != n2) throw Error("CoupledNewton: the coupling block has the wrong size");
@@ -38,8 +45,8 @@ NewtonResult CoupledNewton::minimize(const NewtonValue& f, const CoupledHessian&
     };
     auto precondition = [&](const Eigen::VectorXd& r, Eigen::VectorXd& s) {
       s.resize(n1 + n2);
-      if (n1 > 0) s.head(n1) = chol1_.solve(Eigen::VectorXd(r.head(n1)));
-      if (n2 > 0) s.tail(n2) = chol2_.solve(Eigen::VectorXd(r.tail(n2)));
+      run_pair([&] { if (n1 > 0) s.head(n1) = chol1_.solve(Eigen::VectorXd(r.head(n1))); },
+               [&] { if (n2 > 0) s.tail(n2) = chol2_.solve(Eigen::VectorXd(r.tail(n2))); }, parallel);
     };
     // PCG on [H1 C; C^T H2] d = -g from d = 0.
     const int k = preconditioned_cg(apply, precondition, g, d, opt.newton.cg_iterations, opt.newton.cg_rel_tol);

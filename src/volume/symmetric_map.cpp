@@ -9,6 +9,7 @@
 #include "shapemap/optim/coupled_newton.h"
 #include "shapemap/optim/lbfgs.h"
 #include "shapemap/optim/newton.h"
+#include "shapemap/task_pair.h"
 #include "shapemap/timing.h"
 #include "shapemap/volume/foldover_free.h"
 #include "shapemap/volume/untangle.h"
@@ -1586,10 +1587,18 @@ class SymmetricMapSolver {
     CoupledHessian h = [&](const Eigen::VectorXd& z, BlockHessian& H1, BlockHessian& H2,
                            Eigen::SparseMatrix<double>& C) {
       scatter_p(z);
-      e12_.add_hessian(Y12, H1);
-      e12_.add_eliminated_p_hessian(Y12, P12_, Y21, H1, keep1, keep2);
-      e21_.add_hessian(Y21, H2);
-      e21_.add_eliminated_p_hessian(Y21, P21_, Y12, H2, keep2, keep1);
+      // The two blocks read both maps and write their own: at once (their assembly is
+      // serial in part).
+      run_pair(
+          [&] {
+            e12_.add_hessian(Y12, H1);
+            e12_.add_eliminated_p_hessian(Y12, P12_, Y21, H1, keep1, keep2);
+          },
+          [&] {
+            e21_.add_hessian(Y21, H2);
+            e21_.add_eliminated_p_hessian(Y21, P21_, Y12, H2, keep2, keep1);
+          },
+          two_threads_available());
       entries.clear();
       // C's rows: free vertices of M1 (X12), columns: of M2 (X21).
       auto put = [&](int r1, int c2, const Eigen::Matrix3d& B) {
@@ -1771,12 +1780,24 @@ class SymmetricMapSolver {
     st.name = "land-on-target";
     const auto t0 = Clock::now();
     set_weights();
-    for (int dir = 0; dir < 2; ++dir) {
+    // The two directions are independent (each its own energy, X and map files), and their
+    // Newton steps' factorizations dominate: on two threads when the BLAS allows it.
+    SymmetricMapStage part[2];
+    bool landed[2] = {false, false};
+    auto land_direction = [&](int dir) {
       Landing landing(dir == 0 ? e12_ : e21_, dir == 0 ? M1_ : M2_, dir == 0 ? M2_ : M1_, dir == 0 ? int1_ : int2_,
-                      dir == 0 ? vv1_ : vv2_, dir == 0 ? vt1_ : vt2_, opt_, st);
-      const bool landed = landing.run(dir == 0 ? X12_ : X21_, dir == 0 ? final12_ : final21_);
-      st.stop_reason += std::string(st.stop_reason.empty() ? "" : ", ") + (dir == 0 ? "AB " : "BA ") +
-                        (landed ? "landed" : "snapped (landing inverted more)");
+                      dir == 0 ? vv1_ : vv2_, dir == 0 ? vt1_ : vt2_, opt_, part[dir]);
+      landed[dir] = landing.run(dir == 0 ? X12_ : X21_, dir == 0 ? final12_ : final21_);
+    };
+    run_pair([&] { land_direction(0); }, [&] { land_direction(1); }, factorizations_in_parallel());
+    for (int dir = 0; dir < 2; ++dir) {
+      st.iterations += part[dir].iterations;
+      st.lbfgs_iterations += part[dir].lbfgs_iterations;
+      st.evaluations += part[dir].evaluations;
+      st.land_unprojected += part[dir].land_unprojected;
+      for (int k = 0; k < 4; ++k) st.newton_seconds[k] += part[dir].newton_seconds[k];
+      st.stop_reason += std::string(dir == 0 ? "AB " : ", BA ") +
+                        (landed[dir] ? "landed" : "snapped (landing inverted more)");
     }
     st.energy = energy();
     count_inversions(st);

@@ -4,8 +4,10 @@
 #include "shapemap/geometry/laplacian.h"
 #include "shapemap/geometry/mass.h"
 #include "shapemap/geometry/sparse_cholesky.h"
+#include "shapemap/task_pair.h"
 #include <Eigen/Dense>
 #include <gtest/gtest.h>
+#include <omp.h>
 #include <random>
 
 using namespace shapemap;
@@ -67,4 +69,46 @@ TEST(SparseCholesky, RejectsIndefiniteAndMisuse) {
   EXPECT_THROW(chol.compute(test_matrix(-1.0)), shapemap::Error);
   chol.compute(test_matrix(1.0));
   EXPECT_THROW(chol.solve(Eigen::VectorXd(Eigen::VectorXd::Ones(3))), shapemap::Error);
+}
+
+// Two supernodal factorizations and their solves at once (run_pair, as the volume map's
+// two directions do) give the factors of one after the other, bit for bit, in every round,
+// whatever BLAS is installed (a serial OpenBLAS serializes them inside); and the process-wide
+// OpenMP setting that the supernodal calls change while they run is restored.
+TEST(SparseCholesky, ConcurrentFactorizationsMatchOneAfterTheOther) {
+  Eigen::MatrixXd V1, V2;
+  Eigen::MatrixXi T1, T2;
+  shapemap::testing::tet_grid(11, 0.2, 1, V1, T1);  // fill large enough for BLAS-3 supernodes
+  shapemap::testing::tet_grid(10, 0.2, 2, V2, T2);
+  auto spd = [](const Eigen::MatrixXd& V, const Eigen::MatrixXi& T, double shift) {
+    Eigen::SparseMatrix<double> A = tet_cotan_laplacian(V, T);
+    for (int i = 0; i < A.rows(); ++i) A.coeffRef(i, i) += shift;
+    A.makeCompressed();
+    return A;
+  };
+  const Eigen::SparseMatrix<double> A1 = spd(V1, T1, 0.1), A2 = spd(V2, T2, 0.2);
+  const Eigen::MatrixXd B1 = Eigen::MatrixXd::Random(A1.rows(), 3), B2 = Eigen::MatrixXd::Random(A2.rows(), 3);
+  SparseCholesky c1, c2;
+  c1.compute(A1);
+  c2.compute(A2);
+  const Eigen::MatrixXd ref1 = c1.solve(B1), ref2 = c2.solve(B2);
+  EXPECT_LT((Eigen::MatrixXd(A1) * ref1 - B1).norm(), 1e-8 * B1.norm());
+  const int levels = omp_get_max_active_levels();
+  for (int round = 0; round < 8; ++round) {
+    SparseCholesky d1, d2;
+    d1.analyze(A1);
+    d2.analyze(A2);
+    Eigen::MatrixXd x1, x2;
+    run_pair([&] { d1.factorize(A1); x1 = d1.solve(B1); }, [&] { d2.factorize(A2); x2 = d2.solve(B2); }, true);
+    EXPECT_EQ(x1, ref1) << "round " << round;
+    EXPECT_EQ(x2, ref2) << "round " << round;
+  }
+  EXPECT_EQ(omp_get_max_active_levels(), levels);
+}
+
+TEST(SparseCholesky, RunPairRethrowsATaskError) {
+  int ran = 0;
+  EXPECT_THROW(run_pair([&] { ++ran; }, [] { throw shapemap::Error("second task"); }, true), shapemap::Error);
+  EXPECT_THROW(run_pair([] { throw shapemap::Error("first task"); }, [&] { ++ran; }, false), shapemap::Error);
+  EXPECT_EQ(ran, 2);  // the other task still ran to its end
 }

@@ -34,6 +34,10 @@ class SparseCholesky {
   Eigen::VectorXd solve(const Eigen::VectorXd& b) const;
   Eigen::MatrixXd solve(const Eigen::MatrixXd& B) const;
   int rows() const;
+  // Whether supernodal factorizations and solves of separate objects may run at once
+  // (the BLAS is safe from two threads: not a serial OpenBLAS). When false they are
+  // serialized inside, so running them on two threads is still correct, only not faster.
+  static bool concurrent_factorizations();
 
  private:
   struct Impl;
