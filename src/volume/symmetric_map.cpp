@@ -1459,10 +1459,18 @@ class SymmetricMapSolver {
   void p_steps_at(const Eigen::MatrixXd& X12, const Eigen::MatrixXd& X21, bool fix_boundary,
                   SymmetricMapStage& st) {
     const auto tp = Clock::now();
-    p12_.run(X12, X21, opt_.alpha, beta_, opt_.boundary_to_boundary, fix_boundary ? &bd1_ : nullptr,
-             P12_0_, P12_);
-    p21_.run(X21, X12, opt_.alpha, beta_, opt_.boundary_to_boundary, fix_boundary ? &bd2_ : nullptr,
-             P21_0_, P21_);
+    // Independent (each reads both maps and writes its own P): at once, so that their
+    // serial parts (the BVH refit, the conversion to barycentric rows) overlap.
+    run_pair(
+        [&] {
+          p12_.run(X12, X21, opt_.alpha, beta_, opt_.boundary_to_boundary, fix_boundary ? &bd1_ : nullptr,
+                   P12_0_, P12_);
+        },
+        [&] {
+          p21_.run(X21, X12, opt_.alpha, beta_, opt_.boundary_to_boundary, fix_boundary ? &bd2_ : nullptr,
+                   P21_0_, P21_);
+        },
+        two_threads_available());
     e12_.set_maps(P12_, P21_);
     e21_.set_maps(P21_, P12_);
     st.time_pstep += seconds_since(tp);
@@ -1480,7 +1488,9 @@ class SymmetricMapSolver {
       no.max_expansions = fix_boundary ? opt_.boundary_fixed_expansions : 0;
       no.grad_tol = 0;
       // (Running the two directions on one thread each was 1.3x faster but not
-      // reproducible run to run: it stays serial, parallel inside.)
+      // reproducible run to run with the serial OpenBLAS, which is not safe from two threads.
+      // These non-default paths stay serial, parallel inside; the joint X-step, the default,
+      // factors the two directions at once: joint_x_step, CoupledNewton.)
       if (opt_.eliminate_p) {
         // Both directions start from the same X's and P's, as the fixed-P steps do, so that
         // swapping the inputs swaps the maps; then the P-steps at the new X's.
@@ -1576,7 +1586,10 @@ class SymmetricMapSolver {
     };
     NewtonValue f = [&](const Eigen::VectorXd& z, Eigen::VectorXd* g) {
       scatter_p(z);
-      const double E = e12_.evaluate(Y12, g ? &G12 : nullptr) + e21_.evaluate(Y21, g ? &G21 : nullptr);
+      double E12 = 0, E21 = 0;  // the two directions' terms are independent: at once
+      run_pair([&] { E12 = e12_.evaluate(Y12, g ? &G12 : nullptr); },
+               [&] { E21 = e21_.evaluate(Y21, g ? &G21 : nullptr); }, two_threads_available());
+      const double E = E12 + E21;
       if (g) {
         for (int q = 0; q < k1; ++q) g->segment<3>(3 * q) = G12.row(rows1[q]).transpose();
         for (int q = 0; q < k2; ++q) g->segment<3>(3 * (k1 + q)) = G21.row(rows2[q]).transpose();
