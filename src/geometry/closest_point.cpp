@@ -546,7 +546,7 @@ ClosestPointResult ClosestPointBVH<D>::query(const Point& p) const {
 
 template <int D>
 void ClosestPointBVH<D>::query(const Eigen::MatrixXd& P, std::vector<ClosestPointResult>& out,
-                               bool use_hints) const {
+                               bool use_hints, const std::vector<char>* skip) const {
   if (P.cols() != D)
     throw InputError("ClosestPointBVH::query: points have " + std::to_string(P.cols()) +
                      " columns, expected " + std::to_string(D));
@@ -554,9 +554,13 @@ void ClosestPointBVH<D>::query(const Eigen::MatrixXd& P, std::vector<ClosestPoin
   if (use_hints && int(out.size()) != k)
     throw InputError("ClosestPointBVH::query: " + std::to_string(out.size()) +
                      " hints for " + std::to_string(k) + " points");
+  if (skip && int(skip->size()) != k)
+    throw InputError("ClosestPointBVH::query: " + std::to_string(skip->size()) + " skip flags for " +
+                     std::to_string(k) + " points");
   out.resize(k);
 #pragma omp parallel for schedule(dynamic, 64)
   for (int i = 0; i < k; ++i) {
+    if (skip && (*skip)[i]) continue;
     const Point p = P.row(i).transpose();
     out[i] = query(p, use_hints ? out[i].elem : -1);
   }

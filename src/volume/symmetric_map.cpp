@@ -662,16 +662,19 @@ class PStep {
     Q_.leftCols(3) = a * Mi_.V;
     Q_.rightCols(3) = b * Xij;
     // Hints: the previous P-step's answer for each row (the exact closest point is still
-    // returned; a good hint only tightens the initial bound of the branch and bound).
+    // returned; a good hint only tightens the initial bound of the branch and bound). Rows
+    // that line 10 restores below are not projected (stage 2: the boundary, about half the
+    // rows).
     std::vector<ClosestPointResult>& r = hits_;
     const bool hinted = P.size() == ni;
     r.resize(ni);
     if (hinted)
       for (int v = 0; v < ni; ++v) r[v].elem = P.elem(v);
-    bvh_.query(Q_, r, hinted);
+    bvh_.query(Q_, r, hinted, keep_rows);
     P.elem.resize(ni);
     P.bary.resize(ni, 4);
     for (int v = 0; v < ni; ++v) {
+      if (keep_rows && (*keep_rows)[v]) continue;  // restored below
       P.elem(v) = r[v].elem;
       Eigen::Vector4d w = r[v].bary.cwiseMax(0.0);
       double s = w.sum();
@@ -680,9 +683,15 @@ class PStep {
     if (boundary_to_boundary) {
       const int nb = int(bi_.to_volume.size());
       Eigen::MatrixXd Qb(nb, 6);
-      for (int q = 0; q < nb; ++q) Qb.row(q) = Q_.row(bi_.to_volume(q));
-      std::vector<ClosestPointResult> rb = bvh_bd_.query(Qb);
+      std::vector<char> skip_b(nb, 0);
       for (int q = 0; q < nb; ++q) {
+        Qb.row(q) = Q_.row(bi_.to_volume(q));
+        if (keep_rows) skip_b[q] = (*keep_rows)[bi_.to_volume(q)];
+      }
+      std::vector<ClosestPointResult> rb;
+      bvh_bd_.query(Qb, rb, false, &skip_b);
+      for (int q = 0; q < nb; ++q) {
+        if (skip_b[q]) continue;
         int tet;
         Eigen::Vector4d w;
         face_to_tet(Mj_, bj_, rb[q].elem, rb[q].bary.head<3>(), tet, w);

@@ -336,6 +336,22 @@ TEST(ClosestPointBVH, HintsAndPreallocatedBatch) {
     const Eigen::Matrix<double, 6, 1> p = P.row(i).transpose();
     EXPECT_EQ(bvh.query(p, out[i].elem).sqdist, out[i].sqdist);
   }
+  // Skipped rows are left as they were; the others get the answers of the full batch.
+  std::vector<char> skip(P.rows(), 0);
+  for (size_t i = 0; i < skip.size(); i += 3) skip[i] = 1;
+  std::vector<ClosestPointResult> part(P.rows());
+  for (auto& r : part) r.elem = -7;
+  bvh.query(P, part, false, &skip);
+  for (int i = 0; i < P.rows(); ++i) {
+    if (skip[i]) {
+      EXPECT_EQ(part[i].elem, -7);
+    } else {
+      EXPECT_EQ(part[i].elem, out[i].elem);
+      EXPECT_EQ(part[i].sqdist, out[i].sqdist);
+    }
+  }
+  skip.pop_back();
+  EXPECT_THROW(bvh.query(P, part, false, &skip), std::exception);
 }
 
 TEST(ClosestPointBVH, TrianglesR2) {

@@ -40,8 +40,10 @@ class ClosestPointBVH {
   // Rows of P (k×D) in parallel into a caller-owned vector (resized to k; no allocation
   // when it already has k entries). If use_hints, out[i].elem on entry is the hint for
   // row i (as above).
+  // Rows i with skip[i] != 0 (skip: nullptr or k entries) are not queried: out[i] is left as
+  // it was (resized entries are default).
   void query(const Eigen::MatrixXd& P, std::vector<ClosestPointResult>& out,
-             bool use_hints = false) const;
+             bool use_hints = false, const std::vector<char>* skip = nullptr) const;
   int num_elements() const { return int(E_.rows()); }
   const Eigen::MatrixXd& vertices() const { return V_; }
   const Eigen::MatrixXi& elements() const { return E_; }
