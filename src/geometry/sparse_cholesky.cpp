@@ -45,7 +45,7 @@ std::mutex& blas_mutex() {
 // The BLAS that CHOLMOD was loaded with, as OpenBLAS reports it (nullptr: not OpenBLAS, or
 // not found).
 void* openblas_symbol(const char* name) {
-  for (const char* lib : {"libopenblas.so.0", "libblas.so.3"})
+  for (const char* lib : {"libblas.so.3", "libopenblas.so.0"})  // CHOLMOD calls the first
     if (void* h = dlopen(lib, RTLD_NOW | RTLD_NOLOAD)) {
       void* f = dlsym(h, name);
       dlclose(h);  // only drops the reference RTLD_NOLOAD took
