@@ -1,7 +1,8 @@
-// Two independent tasks on two threads. Used where each task is dominated by supernodal
-// Cholesky factorizations that the BLAS would otherwise run one after the other (the
-// volume map's two directions: the joint X-step's factors and solves, the landing), so
-// the second core works while one factorization runs.
+// Two independent tasks on two threads. Used for the volume map's two directions, whose
+// supernodal Cholesky factorizations would otherwise run one after the other (the joint
+// X-step's factors and solves, the landings), and whose other per-direction work has serial
+// parts that then overlap (Hessian assemblies, P-steps, energy evaluations). Each task's own
+// OpenMP loops run on one thread (libgomp's default of one active level).
 #pragma once
 #include "shapemap/geometry/sparse_cholesky.h"
 #include <exception>
