@@ -152,6 +152,15 @@ CLI::App* add_surface_map_command(CLI::App& parent, SurfaceMapArgs& a) {
       ->check(CLI::Range(3, 30));
   app->add_option("--candidates", a.bim.max_candidates, "BIM: at most this many candidate Möbius maps")
       ->check(CLI::PositiveNumber);
+  app->add_option("--candidate-pool", a.bim.candidate_pool,
+                  "BIM: rank up to this many candidates by mean confidence (Eq. 2) and keep the best "
+                  "--candidates of them; 0: Sec. 6.2's random removal alone")
+      ->check(CLI::NonNegativeNumber);
+  app->add_option("--implied-radius", a.bim.implied_radius,
+                  "BIM: a map also stands for the feature pairs it implies (a source feature mapped "
+                  "within this geodesic distance of a target feature, unit-area surfaces) in Sec. "
+                  "6.2's conflict test; 0: the generating triple alone")
+      ->check(CLI::NonNegativeNumber);
   app->add_option("--samples", a.bim.num_even, "BIM: |P_even| evenly spread samples")->check(CLI::Range(16, 4096));
   add_elastic_options(app, a.elastic, a.truth_ab);
   return app;

@@ -163,7 +163,7 @@ void breadth_first_order(const Eigen::MatrixXi& F, int n, std::vector<int>& orde
 // the feature points (or the landmarks when given).
 void bim_sample_features(const TriMesh& mesh, const BIMOptions& opt, const std::vector<int>& landmarks,
                          std::vector<int>& even, Eigen::MatrixXd& even_dist, Eigen::VectorXd& agd,
-                         std::vector<int>& features) {
+                         std::vector<int>& features, Eigen::MatrixXd* feature_dist) {
   const int n = mesh.num_vertices();
   HeatGeodesics geo(mesh.V, mesh.F, opt.heat_t_factor);
   std::uint64_t rs = opt.seed ^ 0x5bd1e995ULL ^ std::uint64_t(n);
@@ -173,14 +173,15 @@ void bim_sample_features(const TriMesh& mesh, const BIMOptions& opt, const std::
   agd = even_dist.rowwise().mean();
   if (!landmarks.empty()) {
     features = landmarks;
-    return;
+  } else {
+    features = agd_maxima(mesh, agd, opt.feature_radius, opt.max_features);
+    // Too few maxima (nearly symmetric blobs): add spread samples (FPS order).
+    for (int v : even) {
+      if (int(features.size()) >= opt.min_features) break;
+      if (std::find(features.begin(), features.end(), v) == features.end()) features.push_back(v);
+    }
   }
-  features = agd_maxima(mesh, agd, opt.feature_radius, opt.max_features);
-  // Too few maxima (nearly symmetric blobs): add spread samples (FPS order).
-  for (int v : even) {
-    if (int(features.size()) >= opt.min_features) break;
-    if (std::find(features.begin(), features.end(), v) == features.end()) features.push_back(v);
-  }
+  if (feature_dist) *feature_dist = geo.distances(features);
 }
 
 // ---------------------------------------------------------------------------------------
@@ -206,7 +207,7 @@ BIMSurface bim_prepare(const TriMesh& input, const std::string& name, const BIMO
   report(progress, "bim/prepare " + name, 0.1);
 
   t0 = Clock::now();
-  bim_sample_features(s.mesh, opt, landmarks, s.even, s.even_dist, s.agd, s.features);
+  bim_sample_features(s.mesh, opt, landmarks, s.even, s.even_dist, s.agd, s.features, &s.feature_dist);
   s.timings.push_back({"sampling_geodesics", seconds_since(t0)});  // and the AGD features
   report(progress, "bim/prepare " + name, 0.5);
   t0 = Clock::now();
@@ -267,6 +268,57 @@ std::array<int, 3> unrank_triple(long long r, int n) {
   }
   return {a, b, int(b + 1 + r)};
 }
+
+// Target-surface area factor at a located point.
+double located_area_factor(const BIMSurface& dst, const SphereLocator::Location& loc) {
+  double mu = 0;
+  for (int k = 0; k < 3; ++k) mu += loc.bary(k) * dst.flat.area_factor(dst.mesh.F(loc.face, k));
+  return mu;
+}
+
+// Eq. 2: c = 2 / (r + 1/r) with r the area ratio.
+inline double confidence_from_ratio(double r) {
+  if (!(r > 0) || !std::isfinite(r)) return 0.0;
+  return 2.0 / (r + 1.0 / r);
+}
+
+// Confidence of m at the P_even points of src (into out, in P_even order, when out is not null),
+// walking in chain order; returns their sum.
+double confidence_at_even(const BIMSurface& src, const BIMSurface& dst, const Mobius& m, double* out) {
+  int face = -1;
+  double sum = 0;
+  for (int j : src.even_chain) {
+    const int v = src.even[j];
+    Homogeneous w = m(src.hom[v]);
+    auto loc = dst.locator->locate(sphere_from_plane(w), face);
+    face = loc.face;
+    double r = src.flat.area_factor(v) * m.sphere_area_factor(src.hom[v]) / located_area_factor(dst, loc);
+    const double c = confidence_from_ratio(r);
+    if (out) out[j] = c;
+    sum += c;
+  }
+  return sum;
+}
+
+// BIMOptions::candidate_pool: keeps the `keep` candidates of highest mean confidence (Eq. 2 at
+// P_even), in their original order (ties to the earlier candidate).
+void most_confident(const BIMSurface& src, const BIMSurface& dst, int keep, std::vector<BIMCandidate>& cand) {
+  const int n = int(cand.size());
+  std::vector<double> score(n);
+  #pragma omp parallel for schedule(dynamic, 64)
+  for (int i = 0; i < n; ++i)
+    score[i] = confidence_at_even(src, dst, cand[i].mobius, nullptr);
+  std::vector<int> order(n);
+  std::iota(order.begin(), order.end(), 0);
+  auto better = [&](int a, int b) { return score[a] > score[b] || (score[a] == score[b] && a < b); };
+  std::nth_element(order.begin(), order.begin() + keep, order.end(), better);
+  order.resize(keep);
+  std::sort(order.begin(), order.end());
+  std::vector<BIMCandidate> kept;
+  kept.reserve(order.size());
+  for (int i : order) kept.push_back(cand[i]);
+  cand = std::move(kept);
+}
 }  // namespace
 
 std::vector<BIMCandidate> bim_candidates(const BIMSurface& src, const BIMSurface& dst,
@@ -294,8 +346,11 @@ std::vector<BIMCandidate> bim_candidates(const BIMSurface& src, const BIMSurface
     return cd;
   };
   if (total) *total = N;
+  // Landmark triples are all correct correspondences: Sec. 6.2's random removal alone.
+  const bool ranked = !fixed && opt.max_candidates > 0 && opt.candidate_pool > opt.max_candidates;
+  const int keep = ranked ? opt.candidate_pool : opt.max_candidates;
   std::vector<BIMCandidate> all;
-  if (opt.max_candidates > 0 && N > opt.max_candidates) {
+  if (keep > 0 && N > keep) {
     // Sec. 6.2: random removal down to max_candidates (seeded, order kept): a partial
     // Fisher-Yates shuffle of the indices 0..N-1 with the swaps kept in a map, so the
     // candidates are never all built (C(k,3) landmark triples grow fast: 642 landmarks are
@@ -305,9 +360,9 @@ std::vector<BIMCandidate> bim_candidates(const BIMSurface& src, const BIMSurface
       auto it = swapped.find(i);
       return it == swapped.end() ? i : it->second;
     };
-    std::vector<long long> idx(opt.max_candidates);
+    std::vector<long long> idx(keep);
     std::uint64_t rs = opt.seed * 0x2545F4914F6CDD1DULL + 17;
-    for (int i = 0; i < opt.max_candidates; ++i) {
+    for (int i = 0; i < keep; ++i) {
       const long long j = i + (long long)(splitmix64(rs) % std::uint64_t(N - i));
       const long long vi = at(i), vj = at(j);
       swapped[j] = vi;
@@ -335,37 +390,12 @@ std::vector<BIMCandidate> bim_candidates(const BIMSurface& src, const BIMSurface
     }
     valid.push_back(cd);
   }
+  if (ranked && int(valid.size()) > opt.max_candidates) most_confident(src, dst, opt.max_candidates, valid);
   return valid;
 }
 
 // ---------------------------------------------------------------------------------------
 namespace {
-
-// Target-surface area factor at a located point.
-double located_area_factor(const BIMSurface& dst, const SphereLocator::Location& loc) {
-  double mu = 0;
-  for (int k = 0; k < 3; ++k) mu += loc.bary(k) * dst.flat.area_factor(dst.mesh.F(loc.face, k));
-  return mu;
-}
-
-// Eq. 2: c = 2 / (r + 1/r) with r the area ratio.
-inline double confidence_from_ratio(double r) {
-  if (!(r > 0) || !std::isfinite(r)) return 0.0;
-  return 2.0 / (r + 1.0 / r);
-}
-
-// Confidence of m at the P_even points of src (in P_even order), walking in chain order.
-void confidence_at_even(const BIMSurface& src, const BIMSurface& dst, const Mobius& m, double* out) {
-  int face = -1;
-  for (int j : src.even_chain) {
-    int v = src.even[j];
-    Homogeneous w = m(src.hom[v]);
-    auto loc = dst.locator->locate(sphere_from_plane(w), face);
-    face = loc.face;
-    double r = src.flat.area_factor(v) * m.sphere_area_factor(src.hom[v]) / located_area_factor(dst, loc);
-    out[j] = confidence_from_ratio(r);
-  }
-}
 
 // Per-vertex confidence of a map given by mapped positions X (n×3) of the source mesh:
 // Eq. 2 with N_p the one-ring.
@@ -420,6 +450,36 @@ Eigen::VectorXd bim_confidence(const BIMSurface& src, const BIMSurface& dst, con
   Eigen::VectorXd c(src.even.size());
   confidence_at_even(src, dst, m, c.data());
   return c;
+}
+
+// With implied_radius > 0, a target feature claimed by two source features goes to the nearer,
+// and never against the generating triple.
+std::vector<std::pair<int, int>> bim_correspondences(const BIMSurface& src, const BIMSurface& dst,
+                                                     const BIMCandidate& c, const BIMOptions& opt) {
+  std::vector<std::pair<int, int>> out;
+  for (int k = 0; k < 3; ++k) out.push_back({c.source[k], c.target[k]});
+  if (!(opt.implied_radius > 0)) return out;
+  const int n1 = int(src.features.size()), n2 = int(dst.features.size());
+  if (dst.feature_dist.rows() != dst.mesh.num_vertices() || dst.feature_dist.cols() != n2)
+    throw Error("BIM: the target surface has no feature distances (bim_prepare computes them)");
+  std::vector<double> claim(n2, opt.implied_radius);  // distance of the nearest claim so far
+  std::vector<int> by(n2, -1);
+  for (int k = 0; k < 3; ++k) claim[c.target[k]] = -1;  // taken by the triple
+  for (int a = 0; a < n1; ++a) {
+    if (a == c.source[0] || a == c.source[1] || a == c.source[2]) continue;
+    auto loc = dst.locator->locate(sphere_from_plane(c.mobius(src.hom[src.features[a]])));
+    int best = -1;
+    double best_d = 0;
+    for (int b = 0; b < n2; ++b) {
+      double d = 0;
+      for (int k = 0; k < 3; ++k) d += loc.bary(k) * dst.feature_dist(dst.mesh.F(loc.face, k), b);
+      if (best < 0 || d < best_d) best = b, best_d = d;
+    }
+    if (best >= 0 && best_d < claim[best]) claim[best] = best_d, by[best] = a;
+  }
+  for (int b = 0; b < n2; ++b)
+    if (by[b] >= 0) out.push_back({by[b], b});
+  return out;
 }
 
 // ---------------------------------------------------------------------------------------
@@ -599,12 +659,12 @@ struct BimDirection {
     R.eigenvalues = evals;
     // Sec. 6.2: eigenvalues within the fraction of the top one; consistent groups.
     std::vector<char> assigned(K, 0);
+    std::vector<std::vector<std::pair<int, int>>> corr(K);  // filled for the maps considered
     auto consistent = [&](int i, const std::vector<int>& g) {
       for (int j : g)
-        for (int a = 0; a < 3; ++a)
-          for (int b = 0; b < 3; ++b)
-            if ((cand[i].source[a] == cand[j].source[b]) != (cand[i].target[a] == cand[j].target[b]))
-              return false;
+        for (const auto& [a, b] : corr[i])
+          for (const auto& [c, d] : corr[j])
+            if ((a == c) != (b == d)) return false;
       return true;
     };
     R.num_eigenvectors_used = 0;
@@ -621,6 +681,7 @@ struct BimDirection {
         if (std::abs(w(i)) < opt.entry_fraction * wmax) break;
         if (assigned[i]) continue;
         assigned[i] = 1;
+        corr[i] = bim_correspondences(src, dst, cand[i], opt);
         bool placed = false;
         for (auto& g : groups)
           if (consistent(i, g)) {

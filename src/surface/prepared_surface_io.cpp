@@ -10,7 +10,7 @@
 namespace shapemap {
 namespace {
 
-constexpr char kMagic[8] = {'S', 'M', 'P', 'R', 'E', 'P', '0', '1'};
+constexpr char kMagic[8] = {'S', 'M', 'P', 'R', 'E', 'P', '0', '2'};
 
 struct Writer {
   std::string out;
@@ -123,8 +123,8 @@ void load_map(Reader& r, BarycentricMap& m) {
 template <class IO, class O>
 void options_fields(IO&& io, O& o) {
   io(o.max_features, o.min_features, o.feature_radius, o.max_candidates, o.num_even, o.interpolation_sigma,
-     o.sigma, o.eigenvalue_fraction, o.entry_fraction, o.num_eigenvectors, o.max_groups,
-     o.symmetrize_consistency, o.consistency_skip, o.symmetric, o.reverse_candidates, o.seed,
+     o.candidate_pool, o.sigma, o.eigenvalue_fraction, o.entry_fraction, o.num_eigenvectors, o.max_groups,
+     o.symmetrize_consistency, o.consistency_skip, o.implied_radius, o.symmetric, o.reverse_candidates, o.seed,
      o.heat_t_factor, o.min_vertices);
 }
 
@@ -152,6 +152,7 @@ void bim_arrays(Ar& a, Surface& s) {
   a.sparse(s.interp);
   a.mat(s.agd);
   a.vec(s.features);
+  a.mat(s.feature_dist);
   a.mat(s.flat.plane);
   a.mat(s.flat.sphere);
   a.mat(s.flat.area_factor);

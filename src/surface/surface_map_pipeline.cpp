@@ -167,7 +167,8 @@ void run_bim(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& req, c
   nlohmann::json& j = run.report;
   j["method"] = "bim";
   j["parameters"] = {{"max_features", o.max_features},     {"num_even", o.num_even},
-                     {"max_candidates", o.max_candidates}, {"sigma", o.sigma},
+                     {"max_candidates", o.max_candidates}, {"candidate_pool", o.candidate_pool},
+                     {"implied_radius", o.implied_radius},  {"sigma", o.sigma},
                      {"eigenvalue_fraction", o.eigenvalue_fraction},
                      {"entry_fraction", o.entry_fraction}, {"feature_radius", o.feature_radius},
                      {"symmetric", o.symmetric}, {"reverse_candidates", o.reverse_candidates}};

@@ -218,3 +218,86 @@ TEST(Bim, LandmarkTriplesAreSampledWithoutBuildingThemAll) {
     for (int b = a + 1; b < 8; ++b)
       for (int c = b + 1; c < 8; ++c, ++k) EXPECT_EQ(all[k].source, (std::array<int, 3>{a, b, c}));
 }
+
+namespace {
+double mean_confidence(const BIMSurface& src, const BIMSurface& dst, const BIMCandidate& c) {
+  return bim_confidence(src, dst, c.mobius).mean();
+}
+}  // namespace
+
+// BIMOptions::candidate_pool: of all candidates, the max_candidates of highest mean confidence
+// (Eq. 2 at P_even) are kept, in the order of the loops; 0 keeps Sec. 6.2's random removal.
+TEST(Bim, KeptCandidatesAreTheMostConfident) {
+  const TriMesh A = make_creature(3, 900), B = make_creature(4, 900);
+  BIMOptions o;
+  const BIMSurface sa = bim_prepare(A, "A", o), sb = bim_prepare(B, "B", o);
+  BIMOptions all = o;
+  all.max_candidates = 0;  // every candidate
+  const std::vector<BIMCandidate> every = bim_candidates(sa, sb, all);
+  ASSERT_GT(every.size(), 400u);
+  o.max_candidates = 300;
+  const std::vector<BIMCandidate> kept = bim_candidates(sa, sb, o);
+  ASSERT_EQ(kept.size(), 300u);
+  auto key = [](const BIMCandidate& c) { return std::make_pair(c.source, c.target); };
+  std::vector<char> is_kept(every.size(), 0);
+  size_t at = 0;  // kept is a subsequence of every
+  for (const BIMCandidate& c : kept) {
+    while (at < every.size() && key(every[at]) != key(c)) ++at;
+    ASSERT_LT(at, every.size()) << "a kept candidate out of the loops' order";
+    is_kept[at++] = 1;
+  }
+  double worst_kept = 1, best_removed = 0;
+  for (size_t i = 0; i < every.size(); ++i) {
+    const double c = mean_confidence(sa, sb, every[i]);
+    if (is_kept[i]) worst_kept = std::min(worst_kept, c);
+    else best_removed = std::max(best_removed, c);
+  }
+  EXPECT_GE(worst_kept, best_removed);
+  // Random removal alone keeps some candidates less confident than the best removed one.
+  o.candidate_pool = 0;
+  const std::vector<BIMCandidate> random = bim_candidates(sa, sb, o);
+  ASSERT_EQ(random.size(), 300u);
+  double worst_random = 1;
+  for (const BIMCandidate& c : random) worst_random = std::min(worst_random, mean_confidence(sa, sb, c));
+  EXPECT_LT(worst_random, best_removed);
+}
+
+// BIMOptions::implied_radius: between an ellipsoid and a rotated copy with six landmarks as
+// the features, the correct candidate implies every feature's partner; a candidate that swaps
+// two features outside the correct one's triple does not conflict with it in its generating
+// triple, only in what the correct one implies.
+TEST(Bim, ImpliedCorrespondencesExposeASwapTheTriplesDoNotShow) {
+  const TriMesh A = make_ellipsoid(1500, Eigen::Vector3d(1.0, 0.7, 0.5));
+  TriMesh B = A;
+  B.V = A.V * test_rotation().transpose();
+  BIMOptions o;
+  const std::vector<int> lm = farthest_point_sampling_graph(A.V, A.F, 6, 0);
+  const BIMSurface sa = bim_prepare(A, "A", o, lm), sb = bim_prepare(B, "B", o, lm);
+  auto candidate = [&](std::array<int, 3> s, std::array<int, 3> t) {
+    BIMCandidate c;
+    c.source = s;
+    c.target = t;
+    Homogeneous z[3], w[3];
+    for (int k = 0; k < 3; ++k) {
+      z[k] = sa.hom[sa.features[s[k]]];
+      w[k] = sb.hom[sb.features[t[k]]];
+    }
+    c.mobius = Mobius::from_three_points(z, w);
+    return c;
+  };
+  const BIMCandidate right = candidate({0, 1, 2}, {0, 1, 2}), swapped = candidate({3, 4, 5}, {3, 5, 4});
+  auto conflict = [](const std::vector<std::pair<int, int>>& x, const std::vector<std::pair<int, int>>& y) {
+    for (const auto& [a, b] : x)
+      for (const auto& [c, d] : y)
+        if ((a == c) != (b == d)) return true;
+    return false;
+  };
+  const auto implied = bim_correspondences(sa, sb, right, o);
+  EXPECT_EQ(implied.size(), 6u);  // every feature, each to itself
+  for (const auto& [a, b] : implied) EXPECT_EQ(a, b);
+  EXPECT_TRUE(conflict(implied, bim_correspondences(sa, sb, swapped, o)));
+  BIMOptions paper = o;
+  paper.implied_radius = 0;
+  EXPECT_EQ(bim_correspondences(sa, sb, right, paper).size(), 3u);
+  EXPECT_FALSE(conflict(bim_correspondences(sa, sb, right, paper), bim_correspondences(sa, sb, swapped, paper)));
+}

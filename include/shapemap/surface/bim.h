@@ -37,6 +37,12 @@ struct BIMOptions {
   double feature_radius = 0.1;      // AGD maxima must be maximal within this geodesic radius
                                     // (unit-area surfaces); our choice, the paper gives none
   int max_candidates = 10000;       // Sec. 6.2: "we randomly remove maps until we are left with 10,000"
+  // Our choice (docs/methods.md, "Candidates kept by confidence"): with more candidates than
+  // max_candidates, up to candidate_pool of them (Sec. 6.2's random removal down to the pool)
+  // are ranked by their mean confidence (Eq. 2 at P_even) and the best max_candidates kept,
+  // so the few correct triples are not removed at random. 0: Sec. 6.2's random removal alone
+  // (always with landmarks, whose triples are all correct).
+  int candidate_pool = 100000;
   // --- Sec. 5: confidence
   int num_even = 256;               // Sec. 5: |P_even| = 256 farthest-point samples
   double interpolation_sigma = 0;   // Sec. 5: Gaussian interpolation width; 0 = 1/sqrt(num_even)
@@ -50,6 +56,12 @@ struct BIMOptions {
   bool symmetrize_consistency = false; // true: S_ij := (S_ij + S_ji)/2 (Eq. 5 is not symmetric);
                                     // false: Eq. 5 as written, evaluated for i < j
   double consistency_skip = 0.02;   // skip P_even points where c_i c_j < this (their term is < this)
+  // Our choice (docs/methods.md, "Implied correspondences"): the groups of Sec. 6.2 test for
+  // conflicts also the correspondences a map implies: a source feature that it maps within
+  // this geodesic distance (unit-area target) of a target feature, paired with the nearest
+  // one. So a map that sends a limb onto the wrong limb is not blended with maps that send it
+  // right. 0: the generating correspondences alone, as the paper.
+  double implied_radius = 0.05;
   // --- Sec. 7: blend and output
   bool symmetric = false;           // also the map B -> A
   // With symmetric: the direction whose blend has the lower integrated confidence takes the
@@ -81,6 +93,7 @@ struct BIMSurface {
   Eigen::SparseMatrix<double, Eigen::RowMajor> interp;  // n × |P_even| Gaussian weights, rows sum 1
   Eigen::VectorXd agd;              // average geodesic distance (Sec. 4)
   std::vector<int> features;        // feature vertices (AGD maxima, or landmarks)
+  Eigen::MatrixXd feature_dist;     // n × |features| heat geodesic distances from the features
   ConformalFlattening flat;         // vertices on the Riemann sphere
   std::vector<Homogeneous> hom;     // vertices in homogeneous plane coordinates
   std::shared_ptr<SphereLocator> locator;
@@ -91,10 +104,11 @@ struct BIMSurface {
 
 // The first steps of bim_prepare on a mesh in its unit-area frame: P_even (Sec. 5, FPS with
 // options.seed), heat geodesics from it, the AGD (Sec. 4) and the feature points (its maxima,
-// at least options.min_features; or `landmarks` when non-empty). No input checks.
+// at least options.min_features; or `landmarks` when non-empty), and when asked the geodesic
+// distances from the features. No input checks.
 void bim_sample_features(const TriMesh& mesh, const BIMOptions& options, const std::vector<int>& landmarks,
                          std::vector<int>& even, Eigen::MatrixXd& even_dist, Eigen::VectorXd& agd,
-                         std::vector<int>& features);
+                         std::vector<int>& features, Eigen::MatrixXd* feature_dist = nullptr);
 
 // Throws InputError("<name>: <problem>") for invalid input (see require_genus0_surface).
 // If landmarks is non-empty, they are the feature points.
@@ -107,9 +121,18 @@ struct BIMCandidate {
   Mobius mobius;
 };
 
-// All candidates (Sec. 4), pruned to max_candidates by seeded random removal.
+// All candidates (Sec. 4), pruned to max_candidates: by seeded random removal (Sec. 6.2) down
+// to options.candidate_pool, then the most confident ones (when candidate_pool > max_candidates
+// and the features are not landmarks).
 std::vector<BIMCandidate> bim_candidates(const BIMSurface& src, const BIMSurface& dst,
                                          const BIMOptions& options, long long* total = nullptr);
+
+// The (source, target) feature-index pairs a candidate stands for in Sec. 6.2's conflict test:
+// its generating triple and, with options.implied_radius > 0, each other source feature that
+// the candidate maps within implied_radius (geodesic, on dst) of a target feature, paired with
+// the nearest one.
+std::vector<std::pair<int, int>> bim_correspondences(const BIMSurface& src, const BIMSurface& dst,
+                                                     const BIMCandidate& candidate, const BIMOptions& options);
 
 // Image of every source vertex under one Möbius map, on the target surface
 // (normalized frame), n×3; also the target face and barycentric coordinates.
