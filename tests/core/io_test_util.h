@@ -1,11 +1,15 @@
 // Shared fixtures of the io/checks/maps tests: a scratch folder, file helpers, small
 // meshes built by hand.
 #pragma once
+#include "shapemap/error.h"
 #include "shapemap/mesh.h"
 #include <unistd.h>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <string>
 
 namespace shapemap::testing {
@@ -142,6 +146,28 @@ inline TetMesh grid_tets(int n = 3, double h = 0.3) {
   for (int e = 0; e < m.T.rows(); ++e)
     if (vol(e) < 0) std::swap(m.T(e, 2), m.T(e, 3));
   return m;
+}
+
+// v's bytes appended to s in the given byte order (binary file formats).
+template <class T>
+void put(std::string& s, T v, bool big_endian) {
+  unsigned char b[sizeof(T)];
+  std::memcpy(b, &v, sizeof(T));
+  const std::uint16_t one = 1;
+  bool host_be = *reinterpret_cast<const unsigned char*>(&one) == 0;
+  if (big_endian != host_be)
+    for (size_t i = 0; i < sizeof(T) / 2; ++i) std::swap(b[i], b[sizeof(T) - 1 - i]);
+  s.append(reinterpret_cast<const char*>(b), sizeof(T));
+}
+
+// The message of the InputError that f throws, "(no error)" if none.
+inline std::string message_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "(no error)";
 }
 
 }  // namespace shapemap::testing

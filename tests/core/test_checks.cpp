@@ -30,14 +30,6 @@ TetMesh remove_tets(const TetMesh& m, const std::vector<int>& drop) {
   return r;
 }
 
-std::string message_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
 
 }  // namespace
 

@@ -59,17 +59,6 @@ struct AddressSpaceCap {
   }
 };
 
-template <class T>
-void put(std::string& s, T v, bool big_endian) {
-  unsigned char b[sizeof(T)];
-  std::memcpy(b, &v, sizeof(T));
-  const std::uint16_t one = 1;
-  bool host_be = *reinterpret_cast<const unsigned char*>(&one) == 0;
-  if (big_endian != host_be)
-    for (size_t i = 0; i < sizeof(T) / 2; ++i) std::swap(b[i], b[sizeof(T) - 1 - i]);
-  s.append(reinterpret_cast<const char*>(b), sizeof(T));
-}
-
 struct FuzzStats {
   int variants = 0, accepted = 0, rejected = 0;
   std::vector<std::string> failures;

@@ -9,17 +9,6 @@
 using namespace shapemap;
 using namespace shapemap::testing;
 
-namespace {
-std::string message_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
-}  // namespace
-
 TEST(Maps, PositionsAreBarycentricCombinations) {
   TriMesh m = octahedron();
   BarycentricMap map;

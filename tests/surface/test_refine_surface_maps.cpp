@@ -7,6 +7,7 @@
 // adds a fold. Passes (SurfaceRefinementOptions::untangle_passes): the stages run again while
 // a pass lowers the folds, and a pass never adds one.
 #include "shapemap/eval/surface_distortion.h"
+#include "surface_test_util.h"
 #include "shapemap/generate.h"
 #include "shapemap/geometry/closest_point.h"
 #include "shapemap/surface/refine_surface_maps.h"
@@ -19,13 +20,9 @@
 #include <vector>
 
 using namespace shapemap;
+using namespace shapemap::testing;
 
 namespace {
-
-int bad(const TriMesh& S, const TriMesh& T, const BarycentricMap& P) {
-  const SurfaceDistortion d = surface_distortion(S, T, P);
-  return d.flipped + d.degenerate;
-}
 
 // The ground-truth map folded around vertex c: in the target's tangent plane at c's image, a
 // point at distance r from it moves to distance g(r): r up to a, then back to 2a - r up to b

@@ -1,6 +1,7 @@
 // Issue 20: untangling a surface map on its target (surface/untangle.h): the energy's gradient
 // against finite differences, and injected folds on a generated pair come out fold-free.
 #include "shapemap/eval/surface_distortion.h"
+#include "surface_test_util.h"
 #include "shapemap/generate.h"
 #include "shapemap/geometry/closest_point.h"
 #include "shapemap/surface/untangle.h"
@@ -12,13 +13,9 @@
 #include <utility>
 
 using namespace shapemap;
+using namespace shapemap::testing;
 
 namespace {
-
-int bad(const TriMesh& S, const TriMesh& T, const BarycentricMap& P) {
-  const SurfaceDistortion d = surface_distortion(S, T, P);
-  return d.flipped + d.degenerate;
-}
 
 // The image of vertex v moved to the point p of T (closest point).
 void move_image(BarycentricMap& P, int v, const Eigen::Vector3d& p, const ClosestPoint3& bvh) {
