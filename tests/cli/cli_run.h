@@ -5,6 +5,8 @@
 #include <unistd.h>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
 
 namespace shapemap::testing {
@@ -33,4 +35,10 @@ struct TempDir {
   TempDir& operator=(const TempDir&) = delete;
   std::string p(const std::string& f) const { return (dir / f).string(); }
 };
+
+// The whole file as bytes ("" if it cannot be read).
+inline std::string slurp(const std::filesystem::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(f), {});
+}
 }  // namespace shapemap::testing

@@ -18,11 +18,7 @@ using namespace shapemap;
 
 namespace {
 using shapemap::testing::TempDir;
-
-std::string slurp(const std::string& p) {
-  std::ifstream f(p);
-  return std::string(std::istreambuf_iterator<char>(f), {});
-}
+using shapemap::testing::slurp;
 
 // Runs `args`, expects exit 2 and one stderr line containing `needle`.
 void expect_one_line_error(const TempDir& t, const std::string& args, const std::string& needle) {

@@ -1,5 +1,6 @@
 // `shapemap ball`, `shapemap register --via ball`, `shapemap evaluate ball`: outputs,
 // report fields and exit codes.
+#include "cli_run.h"
 #include "shapemap/io.h"
 #include "volume/ball_test_mesh.h"
 #include <gtest/gtest.h>
@@ -12,43 +13,19 @@
 
 namespace fs = std::filesystem;
 using namespace shapemap;
-
-namespace {
-
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    path = fs::temp_directory_path() / ("shapemap_cli_ball_" + std::to_string(getpid()));
-    fs::remove_all(path);
-    fs::create_directories(path);
-  }
-  ~TempDir() { fs::remove_all(path); }
-};
-
-int run(const std::string& args, const fs::path& err) {
-  const std::string cmd = std::string(SHAPEMAP_BINARY) + " --quiet --threads 1 " + args + " 2> " + err.string();
-  const int st = std::system(cmd.c_str());
-  return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-}
-
-std::string slurp(const fs::path& p) {
-  std::ifstream f(p);
-  return std::string(std::istreambuf_iterator<char>(f), {});
-}
-
-}  // namespace
+using namespace shapemap::testing;
 
 TEST(CliBall, BallRegisterEvaluateAndBadInput) {
-  TempDir tmp;
-  const fs::path A = tmp.path / "a.vtk", B = tmp.path / "b.vtk", H = tmp.path / "hollow.vtk";
-  const fs::path err = tmp.path / "err.txt";
+  TempDir tmp("cli_ball");
+  const fs::path A = tmp.dir / "a.vtk", B = tmp.dir / "b.vtk", H = tmp.dir / "hollow.vtk";
+  const fs::path err = tmp.dir / "err.txt";
   write_volume(A.string(), testing_ball::blob_tets(4, Eigen::Vector3d(1, 0.7, 0.5), 0.1));
   write_volume(B.string(), testing_ball::blob_tets(3, Eigen::Vector3d(1, 0.8, 0.5), 0.0));
   write_volume(H.string(), testing_ball::hollow_cube(4));
 
   // ball
-  const fs::path out = tmp.path / "ball";
-  ASSERT_EQ(run("ball " + A.string() + " -o " + out.string() + " --max-iterations 50", err), 0) << slurp(err);
+  const fs::path out = tmp.dir / "ball";
+  ASSERT_EQ(run_stderr("ball " + A.string() + " -o " + out.string() + " --max-iterations 50", err), 0) << slurp(err);
   ASSERT_TRUE(fs::exists(out / "ball.vtk"));
   const nlohmann::json j = nlohmann::json::parse(slurp(out / "report.json"));
   EXPECT_EQ(j["metrics"]["folded_tets"].get<int>(), 0);
@@ -61,8 +38,8 @@ TEST(CliBall, BallRegisterEvaluateAndBadInput) {
   EXPECT_LE(ball.V.rowwise().norm().maxCoeff(), 1.0 + 1e-6);
 
   // evaluate ball: same metrics from the files.
-  const fs::path ev = tmp.path / "eval.json";
-  ASSERT_EQ(run("evaluate ball " + A.string() + " " + (out / "ball.vtk").string() + " -o " + ev.string(), err), 0)
+  const fs::path ev = tmp.dir / "eval.json";
+  ASSERT_EQ(run_stderr("evaluate ball " + A.string() + " " + (out / "ball.vtk").string() + " -o " + ev.string(), err), 0)
       << slurp(err);
   const nlohmann::json e = nlohmann::json::parse(slurp(ev));
   EXPECT_NEAR(e["metrics"]["D_V"]["mean"].get<double>(), j["metrics"]["D_V"]["mean"].get<double>(), 1e-6);
@@ -71,11 +48,11 @@ TEST(CliBall, BallRegisterEvaluateAndBadInput) {
     TetMesh a2 = read_volume(A.string()), f2 = ball;
     std::swap(a2.T(0, 2), a2.T(0, 3));
     f2.T = a2.T;
-    const fs::path A2 = tmp.path / "a_inverted.vtk", F2 = tmp.path / "ball_inverted.vtk";
+    const fs::path A2 = tmp.dir / "a_inverted.vtk", F2 = tmp.dir / "ball_inverted.vtk";
     write_volume(A2.string(), a2);
     write_volume(F2.string(), f2);
-    const fs::path ev2 = tmp.path / "eval2.json";
-    EXPECT_EQ(run("evaluate ball " + A2.string() + " " + F2.string() + " -o " + ev2.string(), err), 2);
+    const fs::path ev2 = tmp.dir / "eval2.json";
+    EXPECT_EQ(run_stderr("evaluate ball " + A2.string() + " " + F2.string() + " -o " + ev2.string(), err), 2);
     const std::string m2 = slurp(err);
     EXPECT_NE(m2.find(A2.string()), std::string::npos) << m2;
     EXPECT_EQ(std::count(m2.begin(), m2.end(), '\n'), 1) << m2;
@@ -83,8 +60,8 @@ TEST(CliBall, BallRegisterEvaluateAndBadInput) {
   }
 
   // register with frames
-  const fs::path reg = tmp.path / "reg";
-  ASSERT_EQ(run("register " + A.string() + " " + B.string() + " -o " + reg.string() +
+  const fs::path reg = tmp.dir / "reg";
+  ASSERT_EQ(run_stderr("register " + A.string() + " " + B.string() + " -o " + reg.string() +
                     " --via ball --frames 3 --max-iterations 30",
                 err),
             0)
@@ -113,8 +90,8 @@ TEST(CliBall, BallRegisterEvaluateAndBadInput) {
   EXPECT_LE(loc["max_snap_distance_interior"].get<double>(), loc["max_snap_distance"].get<double>());
   EXPECT_TRUE(r["located_BA"].contains("interior_outside_ball_mesh"));
   // --no-center: the paper's raw coordinates in the Procrustes step.
-  const fs::path reg2 = tmp.path / "reg_raw";
-  ASSERT_EQ(run("register " + A.string() + " " + B.string() + " -o " + reg2.string() +
+  const fs::path reg2 = tmp.dir / "reg_raw";
+  ASSERT_EQ(run_stderr("register " + A.string() + " " + B.string() + " -o " + reg2.string() +
                     " --no-center --max-iterations 30",
                 err),
             0)
@@ -122,8 +99,8 @@ TEST(CliBall, BallRegisterEvaluateAndBadInput) {
   EXPECT_FALSE(nlohmann::json::parse(slurp(reg2 / "report.json"))["parameters"]["center"].get<bool>());
 
   // not a ball -> exit 2, one line naming the file, no output folder
-  const fs::path bad = tmp.path / "bad";
-  EXPECT_EQ(run("ball " + H.string() + " -o " + bad.string(), err), 2);
+  const fs::path bad = tmp.dir / "bad";
+  EXPECT_EQ(run_stderr("ball " + H.string() + " -o " + bad.string(), err), 2);
   const std::string msg = slurp(err);
   EXPECT_NE(msg.find(H.string()), std::string::npos) << msg;
   EXPECT_NE(msg.find("boundary"), std::string::npos) << msg;
@@ -132,19 +109,19 @@ TEST(CliBall, BallRegisterEvaluateAndBadInput) {
 }
 
 TEST(CliBall, SplitChordsRefinesTheInputAndSaysSo) {
-  TempDir tmp;
-  const fs::path A = tmp.path / "a.vtk", err = tmp.path / "err.txt";
+  TempDir tmp("cli_ball");
+  const fs::path A = tmp.dir / "a.vtk", err = tmp.dir / "err.txt";
   const TetMesh a = testing_ball::blob_tets(4, Eigen::Vector3d(1, 0.7, 0.5), 0.1);
   write_volume(A.string(), a);
-  const fs::path plain = tmp.path / "plain", split = tmp.path / "split";
-  ASSERT_EQ(run("ball " + A.string() + " -o " + plain.string() + " --max-iterations 20", err), 0) << slurp(err);
+  const fs::path plain = tmp.dir / "plain", split = tmp.dir / "split";
+  ASSERT_EQ(run_stderr("ball " + A.string() + " -o " + plain.string() + " --max-iterations 20", err), 0) << slurp(err);
   const nlohmann::json jp = nlohmann::json::parse(slurp(plain / "report.json"));
   const int left = jp["boundary_chords"]["left"].get<int>();
   EXPECT_GT(left, 0);  // Kuhn corner cubes: diagonals between two boundary vertices
   EXPECT_EQ(jp["boundary_chords"]["split"].get<int>(), 0);
   EXPECT_FALSE(fs::exists(plain / "input.vtk"));  // given mesh, unchanged: not copied
 
-  ASSERT_EQ(run("ball " + A.string() + " -o " + split.string() + " --max-iterations 20 --split-chords", err), 0)
+  ASSERT_EQ(run_stderr("ball " + A.string() + " -o " + split.string() + " --max-iterations 20 --split-chords", err), 0)
       << slurp(err);
   const nlohmann::json js = nlohmann::json::parse(slurp(split / "report.json"));
   EXPECT_EQ(js["boundary_chords"]["split"].get<int>(), left);
@@ -158,7 +135,7 @@ TEST(CliBall, SplitChordsRefinesTheInputAndSaysSo) {
 
   // Without --quiet the plain run names the file and the fix on stderr.
   const std::string cmd = std::string(SHAPEMAP_BINARY) + " --threads 1 ball " + A.string() + " -o " +
-                          (tmp.path / "noisy").string() + " --max-iterations 5 2> " + err.string() + " > /dev/null";
+                          (tmp.dir / "noisy").string() + " --max-iterations 5 2> " + err.string() + " > /dev/null";
   ASSERT_EQ(std::system(cmd.c_str()), 0);
   const std::string msg = slurp(err);
   EXPECT_NE(msg.find(A.string() + ": note: " + std::to_string(left) + " interior edges"), std::string::npos) << msg;

@@ -1,4 +1,5 @@
 // The `generate` and `tetrahedralize` subcommands end to end (files, exit codes).
+#include "cli_run.h"
 #include "shapemap/io.h"
 #include "shapemap/maps.h"
 #include "shapemap/mesh.h"
@@ -13,39 +14,12 @@
 
 namespace fs = std::filesystem;
 using namespace shapemap;
-
-namespace {
-
-int run(const std::string& args) {
-  std::string cmd = std::string(SHAPEMAP_BINARY) + " " + args + " > /dev/null 2>&1";
-  int rc = std::system(cmd.c_str());
-  return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
-}
-
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    path = fs::temp_directory_path() / ("shapemap_cgal_cli_" + std::to_string(getpid()));
-    fs::remove_all(path);
-    fs::create_directories(path);
-  }
-  ~TempDir() { fs::remove_all(path); }
-  std::string operator/(const std::string& f) const { return (path / f).string(); }
-};
-
-std::string slurp(const std::string& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-}  // namespace
+using namespace shapemap::testing;
 
 TEST(CliGenerate, PairWithVolumes) {
-  TempDir d;
-  const std::string out = d / "pair";
-  ASSERT_EQ(run("generate -o " + out + " --seed 3 --shape pair --kind non-isometric --vertices 1500 --tets "
+  TempDir d("cgal_cli");
+  const std::string out = d.p("pair");
+  ASSERT_EQ(run_quiet("generate -o " + out + " --seed 3 --shape pair --kind non-isometric --vertices 1500 --tets "
                 "--tet-count 3000"),
             0);
   for (const char* f : {"A.obj", "B.obj", "truth_AB.txt", "truth_BA.txt", "pair.json", "A.vtk", "B.vtk",
@@ -61,27 +35,27 @@ TEST(CliGenerate, PairWithVolumes) {
   EXPECT_EQ(vol.arity(), 4);
   EXPECT_LT(vol.elem.maxCoeff(), TB.num_tets());
   // Same seed, same files.
-  const std::string out2 = d / "pair2";
-  ASSERT_EQ(run("--seed 3 generate -o " + out2 + " --shape pair --kind non-isometric --vertices 1500"), 0);
+  const std::string out2 = d.p("pair2");
+  ASSERT_EQ(run_quiet("--seed 3 generate -o " + out2 + " --shape pair --kind non-isometric --vertices 1500"), 0);
   EXPECT_EQ(slurp(out + "/B.obj"), slurp(out2 + "/B.obj"));
   EXPECT_EQ(slurp(out + "/truth_AB.txt"), slurp(out2 + "/truth_AB.txt"));
 }
 
 TEST(CliTetrahedralize, WritesVolumeAndRejectsBadInput) {
-  TempDir d;
-  ASSERT_EQ(run("generate --shape sphere --vertices 800 -o " + (d / "s.obj")), 0);
-  ASSERT_EQ(run("tetrahedralize " + (d / "s.obj") + " -o " + (d / "s.mesh") + " --tets 2000"), 0);
-  TetMesh t = read_volume(d / "s.mesh");
+  TempDir d("cgal_cli");
+  ASSERT_EQ(run_quiet("generate --shape sphere --vertices 800 -o " + d.p("s.obj")), 0);
+  ASSERT_EQ(run_quiet("tetrahedralize " + d.p("s.obj") + " -o " + d.p("s.mesh") + " --tets 2000"), 0);
+  TetMesh t = read_volume(d.p("s.mesh"));
   EXPECT_GT(t.num_tets(), 2000 / 1.5);
   EXPECT_LT(t.num_tets(), 2000 * 1.5);
   // An open surface: exit 2 and no output.
   {
-    std::ofstream o(d / "open.obj");
+    std::ofstream o(d.p("open.obj"));
     o << "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\n";
   }
-  EXPECT_EQ(run("tetrahedralize " + (d / "open.obj") + " -o " + (d / "open.vtk")), 2);
-  EXPECT_FALSE(fs::exists(d / "open.vtk"));
-  EXPECT_EQ(run("tetrahedralize " + (d / "missing.obj") + " -o " + (d / "m.vtk")), 2);
-  EXPECT_EQ(run("tetrahedralize " + (d / "s.obj") + " -o " + (d / "s.txt")), 2);
-  EXPECT_EQ(run("tetrahedralize " + (d / "s.obj") + " -o " + (d / "s.vtk") + " --tets 100 --edge-length 0.1"), 2);
+  EXPECT_EQ(run_quiet("tetrahedralize " + d.p("open.obj") + " -o " + d.p("open.vtk")), 2);
+  EXPECT_FALSE(fs::exists(d.p("open.vtk")));
+  EXPECT_EQ(run_quiet("tetrahedralize " + d.p("missing.obj") + " -o " + d.p("m.vtk")), 2);
+  EXPECT_EQ(run_quiet("tetrahedralize " + d.p("s.obj") + " -o " + d.p("s.txt")), 2);
+  EXPECT_EQ(run_quiet("tetrahedralize " + d.p("s.obj") + " -o " + d.p("s.vtk") + " --tets 100 --edge-length 0.1"), 2);
 }

@@ -18,13 +18,9 @@
 namespace fs = std::filesystem;
 using namespace shapemap;
 using shapemap::testing::TempDir;
+using shapemap::testing::slurp;
 
 namespace {
-
-std::string slurp(const std::string& p) {
-  std::ifstream f(p);
-  return std::string(std::istreambuf_iterator<char>(f), {});
-}
 
 // Runs the binary with stderr (not quiet: the notes) to `err`; returns the exit code.
 int run_with_notes(const std::string& args, const std::string& err) {

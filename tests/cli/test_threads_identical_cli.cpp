@@ -15,6 +15,7 @@
 
 namespace fs = std::filesystem;
 using shapemap::testing::TempDir;
+using shapemap::testing::slurp;
 
 namespace {
 
@@ -23,11 +24,6 @@ int run_threads(int threads, const std::string& args) {
                           " -q " + args + " > /dev/null 2>&1";
   const int rc = std::system(cmd.c_str());
   return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
-}
-
-std::string slurp(const fs::path& p) {
-  std::ifstream f(p, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(f), {});
 }
 
 // Timings, CPU times and the thread count are measured, not computed: dropped.
