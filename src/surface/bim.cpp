@@ -351,7 +351,7 @@ std::vector<BIMCandidate> bim_candidates(const BIMSurface& src, const BIMSurface
   const int keep = ranked ? opt.candidate_pool : opt.max_candidates;
   std::vector<BIMCandidate> all;
   if (keep > 0 && N > keep) {
-    // Sec. 6.2: random removal down to max_candidates (seeded, order kept): a partial
+    // Sec. 6.2: random removal down to `keep` (seeded, order kept): a partial
     // Fisher-Yates shuffle of the indices 0..N-1 with the swaps kept in a map, so the
     // candidates are never all built (C(k,3) landmark triples grow fast: 642 landmarks are
     // 44 million).
