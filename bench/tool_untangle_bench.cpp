@@ -5,8 +5,10 @@
 // flipped + collapsed triangles after each stage (on the repaired surfaces, as report.json,
 // and on the inputs, as bench/surface_real.sh) and the round trip: the mean over A's vertices
 // of |Q(P(x)) - x| over A's bounding-box diagonal, on the inputs, as bench/surface_real.sh.
-// Usage: tool_untangle_bench A B map_AB map_BA [--no-wide] [--no-bridges] [--sliver-mips M] [--passes N] [-o DIR]
+// Usage: tool_untangle_bench A B map_AB map_BA [--no-wide] [--no-bridges] [--no-search] [--sliver-mips M] [--passes N] [-o DIR]
 // (--no-bridges: no stage 5; --bridge-sweeps N, --bridge-rings N: its sweeps and rings)
+// (--no-search: no stage 6; --search-sweeps N, --search-grid N, --search-max-mips M: its
+// UntangleOptions search_sweeps, search_grid, search_max_mips)
 // (--passes: SurfaceRefinementOptions::untangle_passes, default 3)
 // (--reverse-weight W, --tether T: UntangleOptions::reverse_weight / tether of every stage)
 // (--sliver-mips: stage 4's threshold, 0 skips stage 4)
@@ -44,7 +46,7 @@ double round_trip(const TriMesh& A, const TriMesh& B, const BarycentricMap& P, c
 int main(int argc, char** argv) {
   shapemap::use_passive_openmp_wait(argv);  // as the CLI runs (openmp_policy.h)
   if (argc < 5) {
-    std::fprintf(stderr, "usage: tool_untangle_bench A B map_AB map_BA [--no-wide] [--no-bridges] [--sliver-mips M] "
+    std::fprintf(stderr, "usage: tool_untangle_bench A B map_AB map_BA [--no-wide] [--no-bridges] [--no-search] [--sliver-mips M] "
                  "[--passes N] [--reverse-weight W] [--tether T] [-o DIR]\n");
     return 2;
   }
@@ -53,6 +55,13 @@ int main(int argc, char** argv) {
   for (int i = 5; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--no-wide")) opt.wide_untangle = false;
     else if (!std::strcmp(argv[i], "--no-bridges")) opt.bridge_untangle = false;
+    else if (!std::strcmp(argv[i], "--no-search")) opt.search_untangle = false;
+    else if (!std::strcmp(argv[i], "--search-sweeps") && i + 1 < argc)
+      opt.search_untangling.search_sweeps = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--search-max-mips") && i + 1 < argc)
+      opt.search_untangling.search_max_mips = std::atof(argv[++i]);
+    else if (!std::strcmp(argv[i], "--search-grid") && i + 1 < argc)
+      opt.search_untangling.search_grid = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--bridge-sweeps") && i + 1 < argc)
       opt.bridge_untangling.sweeps = opt.bridge_untangling.smooth_sweeps = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--bridge-rings") && i + 1 < argc) opt.bridge_untangling.rings = std::atoi(argv[++i]);
@@ -104,6 +113,10 @@ int main(int argc, char** argv) {
     std::printf("stage 5: AB %d -> %d (%d of %d regions kept), BA %d -> %d (%d of %d)\n", u.bridge_AB.before.bad(),
                 u.bridge_AB.after.bad(), u.bridge_AB.regions_kept, u.bridge_AB.regions, u.bridge_BA.before.bad(),
                 u.bridge_BA.after.bad(), u.bridge_BA.regions_kept, u.bridge_BA.regions);
+  if (u.search)
+    std::printf("stage 6: AB %d -> %d (%d vertices moved), BA %d -> %d (%d)\n", u.search_AB.before.bad(),
+                u.search_AB.after.bad(), u.search_AB.vertices_moved, u.search_BA.before.bad(),
+                u.search_BA.after.bad(), u.search_BA.vertices_moved);
   std::printf("passes %d, seconds %.1f\n", u.passes, sec);
   if (!out.empty()) {
     std::filesystem::create_directories(out);  // (a missing folder used to abort the tool)

@@ -63,6 +63,11 @@ void add_elastic_options(CLI::App* app, ElasticSettings& o, std::string& truth_a
                 "a last stage re-seats such a corner at the closest point to its neighbours' images "
                 "over the whole target before relaxing its region, kept only where the fold count "
                 "falls; docs/methods.md)");
+  app->add_flag("--elastic-no-search-untangle", [&o](std::int64_t) { o.search_untangle = false; },
+                "elastic: leave the folds the other stages leave (default: a last stage re-seats each "
+                "corner of a fold at the best point of a grid on the target faces near its "
+                "neighbours' images, kept only where the folds around it do not rise; "
+                "docs/methods.md)");
   app->add_option("--elastic-untangle-passes", o.untangle_passes,
                   "elastic: repeat the untangling's stages at most this many times while a pass "
                   "lowers the flipped + collapsed count of both maps (default 3; 1: one pass; "

@@ -141,6 +141,7 @@ py::dict surface_map(const RowMatrixXd& VA, const RowMatrixXi& FA, const RowMatr
   e.wide_untangle = o["elastic_wide_untangle"].cast<bool>();
   e.sliver_untangle = o["elastic_sliver_untangle"].cast<bool>();
   e.bridge_untangle = o["elastic_bridge_untangle"].cast<bool>();
+  e.search_untangle = o["elastic_search_untangle"].cast<bool>();
   e.untangle_passes = o["elastic_untangle_passes"].cast<int>();
   e.feature_anchors = o["elastic_feature_anchors"].cast<bool>();
   set_threads(o["threads"].cast<int>());

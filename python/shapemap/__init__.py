@@ -160,7 +160,8 @@ def surface_map(VA, FA, VB, FB, method="bim", landmarks=None, init=None, init_re
                 truth=None, strict=False, elastic_preset="auto", elastic_eta=-1.0, elastic_alpha=20.0,
                 elastic_iterations=300, elastic_injective=False, elastic_partial=False,
                 elastic_keep_worse=False, elastic_untangle=True, elastic_wide_untangle=True,
-                elastic_sliver_untangle=True, elastic_bridge_untangle=True, elastic_untangle_passes=3,
+                elastic_sliver_untangle=True, elastic_bridge_untangle=True, elastic_search_untangle=True,
+                elastic_untangle_passes=3,
                 elastic_feature_anchors=True, names=("A", "B"),
                 prepared=None, progress=None):
     """Map between two closed genus-0 surfaces (`shapemap surface-map`).
@@ -175,7 +176,8 @@ def surface_map(VA, FA, VB, FB, method="bim", landmarks=None, init=None, init_re
     `--elastic-no-wide-untangle` (without the untangling's second pass over wide regions);
     elastic_sliver_untangle=False: `--elastic-no-sliver-untangle` (slivers left as they are);
     elastic_bridge_untangle=False: `--elastic-no-bridge-untangle` (corners mapped across a thin
-    part not re-seated);
+    part not re-seated); elastic_search_untangle=False: `--elastic-no-search-untangle` (the folds
+    the other stages leave are left);
     elastic_untangle_passes: `--elastic-untangle-passes` (the stages repeated while folds fall);
     elastic_feature_anchors=False: `--elastic-no-feature-anchors`.
     """
@@ -193,6 +195,7 @@ def surface_map(VA, FA, VB, FB, method="bim", landmarks=None, init=None, init_re
                 elastic_untangle=bool(elastic_untangle), elastic_wide_untangle=bool(elastic_wide_untangle),
                 elastic_sliver_untangle=bool(elastic_sliver_untangle),
                 elastic_bridge_untangle=bool(elastic_bridge_untangle),
+                elastic_search_untangle=bool(elastic_search_untangle),
                 elastic_untangle_passes=int(elastic_untangle_passes),
                 elastic_feature_anchors=bool(elastic_feature_anchors),
                 threads=int(threads),

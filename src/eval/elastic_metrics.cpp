@@ -73,78 +73,78 @@ Eigen::VectorXd area_distortion(const Eigen::MatrixXd& X, const Eigen::MatrixXd&
   });
 }
 
+namespace {
+// The target normal at P's point i that is the most aligned with n: the normal of its face, or
+// of a face around the vertex / across the edge it lies on (barycentric tolerance 1e-6).
+Eigen::Vector3d best_normal(const Eigen::Vector3d& n, int i, const Eigen::MatrixXd& Nt, const Eigen::MatrixXi& Ft,
+                            const BarycentricMap& P, const VertexElementsCsr& vf) {
+  constexpr double kAt = 1e-6;
+  const int t = P.elem(i);
+  int kmax = 0, kmin = 0;
+  for (int k = 1; k < 3; ++k) {
+    if (P.bary(i, k) > P.bary(i, kmax)) kmax = k;
+    if (P.bary(i, k) < P.bary(i, kmin)) kmin = k;
+  }
+  int best = t;
+  auto consider = [&](int g) {
+    if (n.dot(Nt.row(g).transpose()) > n.dot(Nt.row(best).transpose())) best = g;
+  };
+  if (P.bary(i, kmax) >= 1 - kAt) {  // at a vertex: every face around it
+    const int v = Ft(t, kmax);
+    for (int q = vf.start[v]; q < vf.start[v + 1]; ++q) consider(vf.elems[q]);
+  } else if (P.bary(i, kmin) <= kAt) {  // on the edge opposite kmin: also the face across it
+    const int a = Ft(t, (kmin + 1) % 3), b = Ft(t, (kmin + 2) % 3);
+    for (int q = vf.start[a]; q < vf.start[a + 1]; ++q) {
+      const int g = vf.elems[q];
+      if (Ft(g, 0) == b || Ft(g, 1) == b || Ft(g, 2) == b) consider(g);
+    }
+  }
+  return Nt.row(best).transpose();
+}
+}  // namespace
+
+int fold_class(int f, const Eigen::MatrixXd& X, const Eigen::MatrixXi& F, const Eigen::MatrixXd& Y,
+               const Eigen::MatrixXd& Nt, const Eigen::MatrixXi& Ft, const BarycentricMap& P, double degenerate_tol,
+               const VertexElementsCsr& target_vertex_faces) {
+  const Eigen::Vector3d x0 = X.row(F(f, 0)), y0 = Y.row(F(f, 0)), y1 = Y.row(F(f, 1)), y2 = Y.row(F(f, 2));
+  const double a0 = (Eigen::Vector3d(X.row(F(f, 1))) - x0).cross(Eigen::Vector3d(X.row(F(f, 2))) - x0).norm();
+  const Eigen::Vector3d n = (y1 - y0).cross(y2 - y0);
+  // the same expression as area_distortion, so that the counts agree bit for bit; the log
+  // (the elastic loop counts folds every outer iteration) only near the threshold, where
+  // rounding could make the two tests differ
+  const double r = n.norm() / a0;
+  const bool collapsed = degenerate_tol > 0 && r > 2 * degenerate_tol   ? false
+                         : degenerate_tol > 0 && r < 0.5 * degenerate_tol ? true
+                                                                         : !(std::log(r) > std::log(degenerate_tol));
+  if (collapsed) return 2;
+  Eigen::Vector3d nt = Eigen::Vector3d::Zero();
+  for (int j = 0; j < 3; ++j) nt += best_normal(n, F(f, j), Nt, Ft, P, target_vertex_faces);
+  return n.dot(nt) < 0 ? 1 : 0;
+}
+
 FoldCounts fold_counts(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F, const Eigen::MatrixXd& Y,
                        const Eigen::MatrixXd& Nt, const Eigen::MatrixXi& Ft, const BarycentricMap& P,
                        double degenerate_tol, std::vector<unsigned char>* faces,
                        const VertexElementsCsr* target_vertex_faces) {
   const int m = int(F.rows());
   if (faces) faces->assign(m, 0);
-  FoldCounts c;
-  const double log_tol = std::log(degenerate_tol);
-  // faces around each target vertex
   VertexElementsCsr own;
   if (!target_vertex_faces) own = vertex_elements_csr(Ft, Ft.rows() ? int(Ft.maxCoeff()) + 1 : 0);
   const VertexElementsCsr& vf = target_vertex_faces ? *target_vertex_faces : own;
-  const std::vector<int>&start = vf.start, &around = vf.elems;
-  constexpr double kAt = 1e-6;  // barycentric tolerance: on an edge / at a vertex
-  // The target normal at P's point i that is the most aligned with n: the normal of its face,
-  // or of a face around the vertex / across the edge it lies on.
-  auto best_normal = [&](const Eigen::Vector3d& n, int i) -> Eigen::Vector3d {
-    const int t = P.elem(i);
-    int kmax = 0, kmin = 0;
-    for (int k = 1; k < 3; ++k) {
-      if (P.bary(i, k) > P.bary(i, kmax)) kmax = k;
-      if (P.bary(i, k) < P.bary(i, kmin)) kmin = k;
-    }
-    int best = t;
-    auto consider = [&](int g) {
-      if (n.dot(Nt.row(g).transpose()) > n.dot(Nt.row(best).transpose())) best = g;
-    };
-    if (P.bary(i, kmax) >= 1 - kAt) {  // at a vertex: every face around it
-      const int v = Ft(t, kmax);
-      for (int q = start[v]; q < start[v + 1]; ++q) consider(around[q]);
-    } else if (P.bary(i, kmin) <= kAt) {  // on the edge opposite kmin: also the face across it
-      const int a = Ft(t, (kmin + 1) % 3), b = Ft(t, (kmin + 2) % 3);
-      for (int q = start[a]; q < start[a + 1]; ++q) {
-        const int g = around[q];
-        if (Ft(g, 0) == b || Ft(g, 1) == b || Ft(g, 2) == b) consider(g);
-      }
-    }
-    return Nt.row(best).transpose();
-  };
   // The elastic loop counts folds 4 times per outer iteration: in parallel from 16,384 faces
   // (10k-vertex meshes; integer counts, so the result does not depend on it).
   int flipped = 0, degenerate = 0;
 #pragma omp parallel for schedule(static) reduction(+ : flipped, degenerate) if (m >= (1 << 14))
   for (int f = 0; f < m; ++f) {
-    const Eigen::Vector3d x0 = X.row(F(f, 0)), y0 = Y.row(F(f, 0)), y1 = Y.row(F(f, 1)),
-                          y2 = Y.row(F(f, 2));
-    const double a0 = (Eigen::Vector3d(X.row(F(f, 1))) - x0)
-                          .cross(Eigen::Vector3d(X.row(F(f, 2))) - x0)
-                          .norm();
-    const Eigen::Vector3d n = (y1 - y0).cross(y2 - y0);
-    // the same expression as area_distortion, so that the counts agree bit for bit; the log
-    // (the elastic loop counts folds every outer iteration) only near the threshold, where
-    // rounding could make the two tests differ
-    const double r = n.norm() / a0;
-    const bool collapsed = degenerate_tol > 0 && r > 2 * degenerate_tol   ? false
-                           : degenerate_tol > 0 && r < 0.5 * degenerate_tol ? true
-                                                                           : !(std::log(r) > log_tol);
-    if (collapsed) {
-      ++degenerate;
-      if (faces) (*faces)[f] = 2;
-      continue;
-    }
-    Eigen::Vector3d nt = Eigen::Vector3d::Zero();
-    for (int j = 0; j < 3; ++j) nt += best_normal(n, F(f, j));
-    if (n.dot(nt) < 0) {
-      ++flipped;
-      if (faces) (*faces)[f] = 1;
-    }
+    const int c = fold_class(f, X, F, Y, Nt, Ft, P, degenerate_tol, vf);
+    flipped += c == 1;
+    degenerate += c == 2;
+    if (faces) (*faces)[f] = static_cast<unsigned char>(c);
   }
-  c.flipped = flipped;
-  c.degenerate = degenerate;
-  return c;
+  FoldCounts counts;
+  counts.flipped = flipped;
+  counts.degenerate = degenerate;
+  return counts;
 }
 
 SurfaceDistortion surface_distortion(const TriMesh& S, const TriMesh& T, const BarycentricMap& P,

@@ -79,6 +79,13 @@ SurfaceUntangling untangle_surface_maps(const TriMesh& A, const TriMesh& B, Bary
     folds = now;
   }
   if (u.bridges && !bridged) bridges();  // the passes ended on their cap
+  // Stage 6: the search over the corners of what is left, then stage 4 for the slivers its
+  // moves leave (a corner is put where the fewest faces around it fold, whatever their shape).
+  u.search = opt.search_untangle && count() > 0;
+  if (u.search) {
+    stage(opt.search_untangling, u.search_AB, u.search_BA, true);
+    if (u.slivers) stage(opt.sliver_untangling, u.sliver_AB, u.sliver_BA, false);
+  }
   return u;
 }
 

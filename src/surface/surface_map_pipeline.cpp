@@ -466,6 +466,13 @@ void run_elastic(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& re
       untangle_json["bridges"]["AB"] = untangle_json_of(u.bridge_AB);
       if (bij) untangle_json["bridges"]["BA"] = untangle_json_of(u.bridge_BA);
     }
+    // stage 6: the corners of the folds left re-seated by a search (runs only when folds are left)
+    untangle_json["search"]["enabled"] = ro.search_untangle;
+    untangle_json["search"]["ran"] = u.search;
+    if (u.search) {
+      untangle_json["search"]["AB"] = untangle_json_of(u.search_AB);
+      if (bij) untangle_json["search"]["BA"] = untangle_json_of(u.search_BA);
+    }
   }
   run.AB_repaired = r.map_AB;
   if (bij) run.BA_repaired = r.map_BA;
@@ -488,6 +495,7 @@ void set_refinement_stages(const ElasticSettings& o, SurfaceRefinementOptions& r
   ro.wide_untangle = o.wide_untangle;
   ro.sliver_untangle = o.sliver_untangle;
   ro.bridge_untangle = o.bridge_untangle;
+  ro.search_untangle = o.search_untangle;
   ro.untangle_passes = o.untangle_passes;
   ro.feature_anchors = o.feature_anchors;
   if (o.anchor_tolerance >= 0) ro.anchoring.tolerance = o.anchor_tolerance;

@@ -393,6 +393,97 @@ struct Untangler {
     set_image(v, f0, b0);
     return false;
   }
+
+  // Flipped or collapsed faces around v (fold_counts' classes).
+  int folds_around(int v, double degenerate_tol) const {
+    int c = 0;
+    for (int q = inc_s.begin(v); q < inc_s.end(v); ++q)
+      c += fold_class(inc_s.elems[q], Xs, Fs, Y, Nt, Ft, P, degenerate_tol, inc_t) != 0;
+    return c;
+  }
+
+  // Conformal distortion MIPS - 2 of the mapped face t (as conformal_distortion; +inf when
+  // its image has no area).
+  double face_mips(int t) const {
+    const Eigen::Vector3d x0 = Xs.row(Fs(t, 0)), y0 = Y.row(Fs(t, 0));
+    const Eigen::Vector3d e1 = Eigen::Vector3d(Xs.row(Fs(t, 1))) - x0, e2 = Eigen::Vector3d(Xs.row(Fs(t, 2))) - x0;
+    const Eigen::Vector3d d1 = Eigen::Vector3d(Y.row(Fs(t, 1))) - y0, d2 = Eigen::Vector3d(Y.row(Fs(t, 2))) - y0;
+    const double G00 = e1.dot(e1), G01 = e1.dot(e2), G11 = e2.dot(e2), detG = G00 * G11 - G01 * G01;
+    const double g00 = d1.dot(d1), g01 = d1.dot(d2), g11 = d2.dot(d2), detg = g00 * g11 - g01 * g01;
+    if (!(detG > 0) || !(detg > 0)) return std::numeric_limits<double>::infinity();
+    return std::max(0.0, (G11 * g00 - 2 * G01 * g01 + G00 * g11) / detG / std::sqrt(detg / detG) - 2.0);
+  }
+  // Per face around v (inc_s order), the MIPS - 2 it may end with when it is not folded:
+  // max_mips, or its own now when it is not folded now and above that. A move or a step of v
+  // that exceeds one would trade a fold for a triangle squashed flat.
+  std::vector<double> mips_limits(int v, double max_mips, double degenerate_tol) const {
+    std::vector<double> limits;
+    for (int q = inc_s.begin(v); q < inc_s.end(v); ++q) {
+      const int t = inc_s.elems[q];
+      const bool folded = fold_class(t, Xs, Fs, Y, Nt, Ft, P, degenerate_tol, inc_t) != 0;
+      limits.push_back(folded ? max_mips : std::max(max_mips, face_mips(t)));
+    }
+    return limits;
+  }
+
+  // The faces around v: how many are flipped or collapsed, and whether each of the others keeps
+  // its MIPS - 2 within its limit (limits: one per face around v, in inc_s order).
+  int folds_within(int v, const std::vector<double>& limits, double degenerate_tol, bool* within) const {
+    int c = 0;
+    *within = true;
+    for (int q = inc_s.begin(v), k = 0; q < inc_s.end(v); ++q, ++k) {
+      const int t = inc_s.elems[q];
+      if (fold_class(t, Xs, Fs, Y, Nt, Ft, P, degenerate_tol, inc_t) != 0) ++c;
+      else if (face_mips(t) > limits[size_t(k)]) *within = false;
+    }
+    return c;
+  }
+
+  // The re-seating search of one corner (UntangleOptions::search_sweeps): its image tried at
+  // each point of a barycentric grid on the target faces within two rings of its own and its
+  // neighbours' images, kept at the best by (folds around it, energy). Returns the folds
+  // removed (0 when it did not move or moved at equal folds).
+  int search_vertex(int v, int grid, double delta, double degenerate_tol, double max_mips) {
+    const int bad0 = folds_around(v, degenerate_tol);
+    if (bad0 == 0) return 0;
+    const std::vector<double> limits = mips_limits(v, max_mips, degenerate_tol);
+    const int f0 = P.elem(v);
+    const Eigen::Vector3d b0 = P.bary.row(v).transpose();
+    std::vector<int> faces = faces_near(f0);
+    for (int q = inc_s.begin(v); q < inc_s.end(v); ++q)
+      for (int j = 0; j < 3; ++j) {
+        const std::vector<int>& near = faces_near(P.elem(Fs(inc_s.elems[q], j)));
+        faces.insert(faces.end(), near.begin(), near.end());
+      }
+    std::sort(faces.begin(), faces.end());
+    faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
+    int best_bad = bad0, best_f = f0;
+    double best_E = vertex_energy(v, delta, nullptr);
+    const double E0 = best_E;
+    Eigen::Vector3d best_b = b0;
+    for (int g : faces)
+      for (int i = 0; i <= grid; ++i)
+        for (int j = 0; i + j <= grid; ++j) {
+          const Eigen::Vector3d b(double(i) / grid, double(j) / grid, double(grid - i - j) / grid);
+          set_image(v, g, b);
+          bool within = true;
+          const int bad = folds_within(v, limits, degenerate_tol, &within);
+          if (bad > best_bad || !within) continue;
+          const double E = vertex_energy(v, delta, nullptr);
+          if (bad < best_bad || E < best_E) {
+            best_bad = bad;
+            best_E = E;
+            best_f = g;
+            best_b = b;
+          }
+        }
+    if (best_bad < bad0 || (best_bad == bad0 && best_E < E0 - 1e-14 * std::abs(E0))) {
+      set_image(v, best_f, best_b);
+      return bad0 - best_bad;
+    }
+    set_image(v, f0, b0);
+    return 0;
+  }
 };
 
 // Per face of S: 0 fine, 1 flipped, 2 collapsed (fold_counts), kSliver (opt.sliver_mips).
@@ -491,6 +582,54 @@ void relax_region(Untangler& U, const std::vector<int>& R, const std::vector<uns
   }
 }
 
+// The re-seating search (UntangleOptions::search_sweeps): sweeps over the corners of the folded
+// faces while a sweep removes folds. Every move leaves the folds around its vertex no more than
+// they were, and only the faces around it change, so the map's fold count never rises.
+void search_folds(Untangler& U, const TriMesh& S, const TriMesh& T, BarycentricMap& P, const UntangleOptions& opt,
+                  std::vector<unsigned char>& flags, std::vector<unsigned char>& moved, UntangleResult& res) {
+  const int m = int(S.F.rows());
+  for (int sweep = 0; sweep < opt.search_sweeps && res.after.bad() > 0; ++sweep) {
+    std::vector<int> corners;
+    for (int t = 0; t < m; ++t)
+      if (flags[t] == 1 || flags[t] == 2)
+        for (int j = 0; j < 3; ++j) corners.push_back(S.F(t, j));
+    std::sort(corners.begin(), corners.end());
+    corners.erase(std::unique(corners.begin(), corners.end()), corners.end());
+    int removed = 0;
+    std::vector<int> polish;  // the moved corners and their neighbours
+    for (int v : corners) {
+      const int f0 = P.elem(v);
+      const Eigen::Vector3d b0 = P.bary.row(v).transpose();
+      removed += U.search_vertex(v, opt.search_grid, opt.delta_end, opt.degenerate_tol, opt.search_max_mips);
+      if (P.elem(v) == f0 && P.bary.row(v).transpose() == b0) continue;
+      moved[v] = 1;
+      for (int q = U.inc_s.begin(v); q < U.inc_s.end(v); ++q)
+        for (int j = 0; j < 3; ++j) polish.push_back(S.F(U.inc_s.elems[q], j));
+    }
+    // A grid point is where the folds fall, not where the triangles are shapely: the moved
+    // corners and their neighbours relax (the energy's barrier opens the slivers), each step
+    // kept only where the folds around its vertex do not rise and no face there passes its
+    // MIPS limit.
+    std::sort(polish.begin(), polish.end());
+    polish.erase(std::unique(polish.begin(), polish.end()), polish.end());
+    for (int s = 0; s < opt.sweeps; ++s)
+      for (int w : polish) {
+        const int f0 = P.elem(w), bad0 = U.folds_around(w, opt.degenerate_tol);
+        const Eigen::Vector3d b0 = P.bary.row(w).transpose();
+        const std::vector<double> limits = U.mips_limits(w, opt.search_max_mips, opt.degenerate_tol);
+        if (!U.relax_vertex(w, opt.delta_end)) continue;
+        bool within = true;
+        if (U.folds_within(w, limits, opt.degenerate_tol, &within) > bad0 || !within) U.set_image(w, f0, b0);
+        else moved[w] = 1;
+      }
+    ++res.regions;
+    int unused = 0;
+    res.after = classify_faces(U, S, T, P, opt, flags, &unused);
+    if (removed == 0) break;
+  }
+  res.slivers_after = res.slivers_before;
+}
+
 }  // namespace
 
 UntangleResult untangle_surface_map(const TriMesh& S, const TriMesh& T, BarycentricMap& P,
@@ -504,6 +643,12 @@ UntangleResult untangle_surface_map(const TriMesh& S, const TriMesh& T, Barycent
   res.before = res.after = classify_faces(U, S, T, P, opt, flags, &res.slivers_before);
   res.slivers_after = res.slivers_before;
   std::vector<unsigned char> moved(n, 0);
+  if (opt.search_sweeps > 0) {
+    search_folds(U, S, T, P, opt, flags, moved, res);
+    for (int v = 0; v < n; ++v) res.vertices_moved += moved[v];
+    res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+    return res;
+  }
   // faces that were bad in a region whose try ended worse than it started: a fold that the
   // region's vertices cannot undo (typically a whole patch mapped mirrored); a larger region
   // made only of such faces is not tried again.

@@ -227,6 +227,15 @@ def test_elastic_untangle_option(surfaces):
     for d in ("AB", "BA"):
         b = on.report["elastic"]["untangle"]["bridges"][d]
         assert b["bad_triangles_after"] <= b["bad_triangles_before"]
+    # elastic_search_untangle=False: no stage 6 (--elastic-no-search-untangle); it runs only on
+    # folds left, and never adds one
+    search = on.report["elastic"]["untangle"]["search"]
+    assert search["enabled"] is True
+    for d in ("AB", "BA") if search["ran"] else ():
+        assert search[d]["bad_triangles_after"] <= search[d]["bad_triangles_before"]
+    nos = shapemap.surface_map(VA, FA, VB, FB, method="elastic", elastic_iterations=3,
+                               elastic_search_untangle=False, **FAST_BIM)
+    assert nos.report["elastic"]["untangle"]["search"] == {"enabled": False, "ran": False}
 
 
 def test_elastic_landmarks_are_the_anchors(surfaces, pair):

@@ -69,6 +69,7 @@ TEST(RefineSurfaceMaps, WideUntanglingUndoesAMirroredPatchTheLocalOneLeaves) {
   local.wide_untangle = false;
   local.sliver_untangle = wide.sliver_untangle = false;  // stages 2 and 3 (4 and 5 lower folds too)
   local.bridge_untangle = wide.bridge_untangle = false;
+  local.search_untangle = wide.search_untangle = false;
   BarycentricMap P = P0, Q = Q0;
   const SurfaceUntangling u2 = untangle_surface_maps(A, B, P, Q, local);
   EXPECT_FALSE(u2.wide);
@@ -95,7 +96,7 @@ TEST(RefineSurfaceMaps, PassesRepeatTheStagesWhileTheFoldsFall) {
   const BarycentricMap Q0 = invert_surface_map(P0, A, B);
   auto run = [&](int passes, BarycentricMap& P, BarycentricMap& Q) {
     SurfaceRefinementOptions o;
-    o.wide_untangle = o.sliver_untangle = o.bridge_untangle = false;
+    o.wide_untangle = o.sliver_untangle = o.bridge_untangle = o.search_untangle = false;
     o.untangle_passes = passes;
     P = P0;
     Q = Q0;
@@ -197,6 +198,7 @@ TEST(RefineSurfaceMaps, BridgeStageReseatsCornersMappedAcrossAThinPart) {
   ASSERT_GE(bad0, 3) << "each moved vertex folds triangles around it";
   SurfaceRefinementOptions without, with;
   without.bridge_untangle = false;
+  without.search_untangle = with.search_untangle = false;  // stage 5 alone (6 lowers folds too)
   BarycentricMap P = P0, Q = Q0;
   const SurfaceUntangling u4 = untangle_surface_maps(A, B, P, Q, without);
   EXPECT_FALSE(u4.bridges);

@@ -49,6 +49,37 @@ std::pair<double, double> moves_from_truth(const BarycentricMap& P, const TriMes
   return {far_moved, err};
 }
 
+// Folds injected into the ground-truth map of a generated pair: every n/6-th vertex v from 7 has
+// its image moved past its first neighbour's (by `beyond` of their distance: a turn-over) or,
+// every third one, onto it (a collapse).
+struct InjectedFolds {
+  BarycentricMap P;                    // the map with the folds
+  int count = 0;                       // vertices moved
+  std::vector<char> near;              // the moved vertices and `rings` rings around them
+  std::vector<std::vector<int>> nb;    // A's vertex neighbours
+};
+InjectedFolds inject_folds(const GeneratedPair& pair, double beyond, int rings) {
+  const TriMesh &A = pair.A, &B = pair.B;
+  const ClosestPoint3 bvh(B.V, B.F);
+  const Eigen::MatrixXd truth = map_positions(pair.truth_AB, B.V, B.F);
+  const int n = A.num_vertices();
+  InjectedFolds in;
+  in.P = pair.truth_AB;
+  in.near.assign(n, 0);
+  in.nb.assign(n, {});
+  for (int f = 0; f < A.num_faces(); ++f)
+    for (int j = 0; j < 3; ++j) in.nb[A.F(f, j)].push_back(A.F(f, (j + 1) % 3));
+  for (int v = 7; v < n; v += n / 6, ++in.count) {
+    const int w = in.nb[v][0];
+    const Eigen::Vector3d pv = truth.row(v).transpose(), pw = truth.row(w).transpose();
+    if (in.count % 3 == 2) move_image(in.P, v, pw, bvh);      // collapse
+    else move_image(in.P, v, pw + beyond * (pw - pv), bvh);  // turn over
+    in.near[v] = 1;
+  }
+  grow_rings(in.near, in.nb, rings);
+  return in;
+}
+
 }  // namespace
 
 // dE/dY of one mapped triangle against central differences: upright, nearly collapsed and
@@ -152,24 +183,13 @@ TEST(Untangle, InjectedFoldsOnAGeneratedPairComeOutFoldFree) {
   const GeneratedPair pair = make_creature_pair(3, PairKind::NonIsometric, 1500);
   const TriMesh &A = pair.A, &B = pair.B;
   ASSERT_EQ(bad(A, B, pair.truth_AB), 0);
-  const ClosestPoint3 bvh(B.V, B.F);
   const Eigen::MatrixXd truth = map_positions(pair.truth_AB, B.V, B.F);
-  BarycentricMap P = pair.truth_AB;
   const int n = A.num_vertices();
-  std::vector<char> near(n, 0);
-  std::vector<std::vector<int>> nb(n);
-  for (int f = 0; f < A.num_faces(); ++f)
-    for (int j = 0; j < 3; ++j) nb[A.F(f, j)].push_back(A.F(f, (j + 1) % 3));
-  int injected = 0;
-  for (int v = 7; v < n; v += n / 6, ++injected) {
-    const int w = nb[v][0];
-    const Eigen::Vector3d pv = truth.row(v).transpose(), pw = truth.row(w).transpose();
-    if (injected % 3 == 2) move_image(P, v, pw, bvh);   // collapse
-    else move_image(P, v, pw + 1.5 * (pw - pv), bvh);  // turn over
-    near[v] = 1;
-  }
   // the stage moves at most the corners of bad triangles and 2 + 4 + 8 rings around them
-  grow_rings(near, nb, 9);
+  InjectedFolds in = inject_folds(pair, 1.5, 9);
+  BarycentricMap& P = in.P;
+  const std::vector<char>& near = in.near;
+  const int injected = in.count;
   int far = 0;
   for (int x = 0; x < n; ++x) far += !near[x];
   ASSERT_GT(far, n / 5);
@@ -249,6 +269,44 @@ TEST(Untangle, InjectedSliversAreRelaxedWithoutAddingFolds) {
   EXPECT_EQ(slivers(P), 0);
   EXPECT_LE(bad(A, B, P), folds0);
   validate_map(P, n, B.num_faces(), 3, "relaxed");
+  const double diag = (B.V.colwise().maxCoeff() - B.V.colwise().minCoeff()).norm();
+  const auto [far_moved, err] = moves_from_truth(P, B, truth, near);
+  EXPECT_EQ(far_moved, 0.0);
+  EXPECT_LT(err, 0.05 * diag);
+}
+
+// Stage 6 (UntangleOptions::search): the re-seating search on its own removes injected turn-overs
+// and collapses, never has more folds than it started with, moves only vertices near them (two
+// sweeps: the folds' corners and their neighbours, twice), and trades no fold for a triangle
+// squashed beyond search_max_mips (or the worst there was).
+TEST(Untangle, SearchReseatsTheCornersOfFolds) {
+  const GeneratedPair pair = make_creature_pair(3, PairKind::NonIsometric, 1500);
+  const TriMesh &A = pair.A, &B = pair.B;
+  const Eigen::MatrixXd truth = map_positions(pair.truth_AB, B.V, B.F);
+  const int n = A.num_vertices();
+  InjectedFolds in = inject_folds(pair, 0.8, 4);
+  BarycentricMap& P = in.P;
+  const std::vector<char>& near = in.near;
+  const int injected = in.count;
+  const int bad0 = bad(A, B, P);
+  ASSERT_GE(bad0, injected);
+  auto max_mips = [&](const BarycentricMap& M) {
+    const Eigen::VectorXd mips = conformal_distortion(A.V, map_positions(M, B.V, B.F), A.F);
+    double m = 0;
+    for (int t = 0; t < A.num_faces(); ++t)
+      if (std::isfinite(mips(t))) m = std::max(m, mips(t));
+    return m;
+  };
+  const double mips0 = max_mips(P);
+  UntangleOptions opt = UntangleOptions::search();
+  opt.search_sweeps = 2;
+  const UntangleResult r = untangle_surface_map(A, B, P, opt, &pair.truth_BA);
+  EXPECT_EQ(r.before.bad(), bad0);
+  EXPECT_EQ(r.after.bad(), bad(A, B, P));
+  EXPECT_EQ(r.after.bad(), 0);
+  EXPECT_GT(r.vertices_moved, 0);
+  EXPECT_LE(max_mips(P), std::max(opt.search_max_mips, mips0));
+  validate_map(P, n, B.num_faces(), 3, "searched");
   const double diag = (B.V.colwise().maxCoeff() - B.V.colwise().minCoeff()).norm();
   const auto [far_moved, err] = moves_from_truth(P, B, truth, near);
   EXPECT_EQ(far_moved, 0.0);

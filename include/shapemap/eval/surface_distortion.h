@@ -67,6 +67,12 @@ FoldCounts fold_counts(const Eigen::MatrixXd& X, const Eigen::MatrixXi& F, const
                        double degenerate_tol = 1e-12, std::vector<unsigned char>* faces = nullptr,
                        const VertexElementsCsr* target_vertex_faces = nullptr);
 
+// The class of one source face f as fold_counts gives it: 0 fine, 1 flipped, 2 collapsed (for
+// callers that change a few images and recount only the faces around them).
+int fold_class(int f, const Eigen::MatrixXd& X, const Eigen::MatrixXi& F, const Eigen::MatrixXd& Y,
+               const Eigen::MatrixXd& Nt, const Eigen::MatrixXi& Ft, const BarycentricMap& P, double degenerate_tol,
+               const VertexElementsCsr& target_vertex_faces);
+
 // All of the above for the map P: S -> T (P: S.num_vertices() rows onto T's faces).
 SurfaceDistortion surface_distortion(const TriMesh& S, const TriMesh& T, const BarycentricMap& P,
                                      const SurfaceDistortionOptions& opt = {});

@@ -15,9 +15,12 @@
 //   4. the same untangling over regions around slivers, mapped triangles squashed nearly flat
 //      (UntangleOptions::slivers);
 //   5. stage 2's regions again with their bridges re-seated first: corners mapped across a thin
-//      part of the target, which the local steps cannot bring back (UntangleOptions::bridges).
+//      part of the target, which the local steps cannot bring back (UntangleOptions::bridges);
+//   6. the re-seating search over the corners of the folds still left (UntangleOptions::search):
+//      crumpled parts of scans, collapsed triangles.
 // Stages 2, 3 and 5 keep a region's new images only where its fold count falls, stage 4 where its
-// sliver count falls and its fold count does not rise, so the returned maps never have more
+// sliver count falls and its fold count does not rise, stage 6 a corner's where the folds around
+// it do not rise, so the returned maps never have more
 // flipped or collapsed triangles than the refinement's. Stages 2 to 4 are repeated while a pass
 // lowers the folds (SurfaceRefinementOptions::untangle_passes); stage 5 runs once, where those
 // passes would stop, and the passes go on when it lowered the folds.
@@ -43,6 +46,8 @@ struct SurfaceRefinementOptions {
   UntangleOptions sliver_untangling = UntangleOptions::slivers();
   bool bridge_untangle = true;  // stage 5 (--elastic-no-bridge-untangle turns it off)
   UntangleOptions bridge_untangling = UntangleOptions::bridges();
+  bool search_untangle = true;  // stage 6 (--elastic-no-search-untangle turns it off)
+  UntangleOptions search_untangling = UntangleOptions::search();
   // Stages 2 to 4 are repeated (stage 5 once among them), at most this many times, while a pass lowers the flipped +
   // collapsed count of both maps (the 45 camel pose pairs, one pass -> 3: 12 -> 15 fold-free
   // after repair, folds 14,322 -> 13,068; docs/methods.md). 1 = one pass.
@@ -58,6 +63,8 @@ struct SurfaceUntangling {
   UntangleResult sliver_AB, sliver_BA;  // stage 4
   bool bridges = false;             // stage 5 ran
   UntangleResult bridge_AB, bridge_BA;  // stage 5
+  bool search = false;              // stage 6 ran
+  UntangleResult search_AB, search_BA;  // stage 6
   FoldCounts final_AB, final_BA;    // the returned maps
   int passes = 0;                   // passes of stages 2 to 4 run (untangle_passes); each
                                     // stage's result: before = the first pass's, after = the

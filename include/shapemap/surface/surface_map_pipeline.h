@@ -47,6 +47,7 @@ struct ElasticSettings {
   bool wide_untangle = true;
   bool sliver_untangle = true;  // stage 4 of refine_surface_maps.h (--elastic-no-sliver-untangle)
   bool bridge_untangle = true;  // stage 5 of refine_surface_maps.h (--elastic-no-bridge-untangle)
+  bool search_untangle = true;  // stage 6 of refine_surface_maps.h (--elastic-no-search-untangle)
   int untangle_passes = 3;      // stages 2-4 repeated while folds fall (--elastic-untangle-passes)
   // Stage 0 of refine_surface_maps.h: feature anchors (feature_anchors.h; the landmarks when
   // the initial maps come from landmarks). --elastic-no-feature-anchors, --elastic-anchor-weight.

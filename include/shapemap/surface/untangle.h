@@ -67,6 +67,21 @@ struct UntangleOptions {
   // pairs whose two maps disagree and lengthened their round trip, docs/methods.md).
   // bridges() sets it for stage 5.
   bool reseat_bridges = false;
+  // Re-seating search: > 0 replaces the regions' relaxation by this many sweeps over the corners
+  // of the flipped and collapsed triangles, each corner's image tried at every point of a
+  // barycentric grid (search_grid + 1 points along an edge) on the target faces near its own and
+  // its neighbours' images, and put where the fewest triangles around it are folded, then the
+  // energy E above (at delta_end) is lowest; kept where the folds around it fall, or stay and
+  // the energy falls. For folds the relaxation cannot reach: on crumpled parts of real scans
+  // (the camel's ears, sheets folded back onto themselves) a tangent-plane step does not cross
+  // the crease, and a collapsed triangle gives every rotation-invariant energy a zero gradient.
+  // search() sets it for stage 6.
+  int search_sweeps = 0;
+  int search_grid = 8;
+  // ... and a corner is not moved where a face around it that is not folded ends with a
+  // conformal distortion MIPS - 2 above this, or above its own before when it was not folded,
+  // whichever is larger.
+  double search_max_mips = 300;
   // Stage 3 of refine_surface_maps.h, for what the defaults leave: regions of 4 (then 8) rings
   // and 200 sweeps from delta 0.3. A patch mapped mirrored needs both: the first try of a
   // 2-ring region around it adds folds at its rim, which marks its faces as not to be tried
@@ -99,6 +114,12 @@ struct UntangleOptions {
   static UntangleOptions bridges() {
     UntangleOptions o;
     o.reseat_bridges = true;
+    return o;
+  }
+  // Stage 6 of refine_surface_maps.h, last: the re-seating search over what stages 2 to 5 left.
+  static UntangleOptions search() {
+    UntangleOptions o;
+    o.search_sweeps = 10;
     return o;
   }
   // Both surfaces are measured as unit-area copies (Sec. 5.2's global scale, and the frame in
