@@ -482,6 +482,14 @@ std::vector<std::pair<int, int>> bim_correspondences(const BIMSurface& src, cons
   return out;
 }
 
+bool bim_correspondences_conflict(const std::vector<std::pair<int, int>>& x,
+                                  const std::vector<std::pair<int, int>>& y) {
+  for (const auto& [a, b] : x)
+    for (const auto& [c, d] : y)
+      if ((a == c) != (b == d)) return true;
+  return false;
+}
+
 // ---------------------------------------------------------------------------------------
 namespace {
 
@@ -662,9 +670,7 @@ struct BimDirection {
     std::vector<std::vector<std::pair<int, int>>> corr(K);  // filled for the maps considered
     auto consistent = [&](int i, const std::vector<int>& g) {
       for (int j : g)
-        for (const auto& [a, b] : corr[i])
-          for (const auto& [c, d] : corr[j])
-            if ((a == c) != (b == d)) return false;
+        if (bim_correspondences_conflict(corr[i], corr[j])) return false;
       return true;
     };
     R.num_eigenvectors_used = 0;

@@ -286,12 +286,12 @@ TEST(Bim, ImpliedCorrespondencesExposeASwapTheTriplesDoNotShow) {
     return c;
   };
   const BIMCandidate right = candidate({0, 1, 2}, {0, 1, 2}), swapped = candidate({3, 4, 5}, {3, 5, 4});
-  auto conflict = [](const std::vector<std::pair<int, int>>& x, const std::vector<std::pair<int, int>>& y) {
-    for (const auto& [a, b] : x)
-      for (const auto& [c, d] : y)
-        if ((a == c) != (b == d)) return true;
-    return false;
-  };
+  auto conflict = bim_correspondences_conflict;
+  // Sec. 6.2's test itself: one feature sent two ways conflicts, the same pair or disjoint ones do not
+  EXPECT_TRUE(conflict({{0, 0}}, {{0, 1}}));
+  EXPECT_TRUE(conflict({{0, 0}}, {{1, 0}}));
+  EXPECT_FALSE(conflict({{0, 0}}, {{0, 0}}));
+  EXPECT_FALSE(conflict({{0, 0}, {2, 3}}, {{1, 1}, {2, 3}}));
   const auto implied = bim_correspondences(sa, sb, right, o);
   EXPECT_EQ(implied.size(), 6u);  // every feature, each to itself
   for (const auto& [a, b] : implied) EXPECT_EQ(a, b);

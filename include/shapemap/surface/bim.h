@@ -134,6 +134,11 @@ std::vector<BIMCandidate> bim_candidates(const BIMSurface& src, const BIMSurface
 std::vector<std::pair<int, int>> bim_correspondences(const BIMSurface& src, const BIMSurface& dst,
                                                      const BIMCandidate& candidate, const BIMOptions& options);
 
+// Sec. 6.2's conflict between two sets of feature pairs: a source feature sent to two targets,
+// or two sources sent to one target.
+bool bim_correspondences_conflict(const std::vector<std::pair<int, int>>& x,
+                                  const std::vector<std::pair<int, int>>& y);
+
 // Image of every source vertex under one Möbius map, on the target surface
 // (normalized frame), n×3; also the target face and barycentric coordinates.
 Eigen::MatrixXd bim_apply(const BIMSurface& src, const BIMSurface& dst, const Mobius& m,
