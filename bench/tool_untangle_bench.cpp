@@ -7,8 +7,9 @@
 // of |Q(P(x)) - x| over A's bounding-box diagonal, on the inputs, as bench/surface_real.sh.
 // Usage: tool_untangle_bench A B map_AB map_BA [--no-wide] [--no-bridges] [--no-search] [--sliver-mips M] [--passes N] [-o DIR]
 // (--no-bridges: no stage 5; --bridge-sweeps N, --bridge-rings N: its sweeps and rings)
-// (--no-search: no stage 6; --search-sweeps N, --search-grid N, --search-max-mips M: its
-// UntangleOptions search_sweeps, search_grid, search_max_mips)
+// (--no-search: no stage 6; --search-sweeps N, --search-grid N, --search-rings N,
+// --search-max-mips M: its UntangleOptions search_sweeps, search_grid, search_rings,
+// search_max_mips)
 // (--passes: SurfaceRefinementOptions::untangle_passes, default 3)
 // (--reverse-weight W, --tether T: UntangleOptions::reverse_weight / tether of every stage)
 // (--sliver-mips: stage 4's threshold, 0 skips stage 4)
@@ -60,6 +61,8 @@ int main(int argc, char** argv) {
       opt.search_untangling.search_sweeps = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--search-max-mips") && i + 1 < argc)
       opt.search_untangling.search_max_mips = std::atof(argv[++i]);
+    else if (!std::strcmp(argv[i], "--search-rings") && i + 1 < argc)
+      opt.search_untangling.search_rings = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--search-grid") && i + 1 < argc)
       opt.search_untangling.search_grid = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--bridge-sweeps") && i + 1 < argc)

@@ -440,10 +440,10 @@ struct Untangler {
   }
 
   // The re-seating search of one corner (UntangleOptions::search_sweeps): its image tried at
-  // each point of a barycentric grid on the target faces within two rings of its own and its
-  // neighbours' images, kept at the best by (folds around it, energy). Returns the folds
+  // each point of a barycentric grid on the target faces within `rings` rings (even) of its own
+  // and its neighbours' images, kept at the best by (folds around it, energy). Returns the folds
   // removed (0 when it did not move or moved at equal folds).
-  int search_vertex(int v, int grid, double delta, double degenerate_tol, double max_mips) {
+  int search_vertex(int v, int grid, int rings, double delta, double degenerate_tol, double max_mips) {
     const int bad0 = folds_around(v, degenerate_tol);
     if (bad0 == 0) return 0;
     const std::vector<double> limits = mips_limits(v, max_mips, degenerate_tol);
@@ -457,6 +457,16 @@ struct Untangler {
       }
     std::sort(faces.begin(), faces.end());
     faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
+    for (int r = 2; r < rings; r += 2) {  // two rings more around what is gathered
+      std::vector<int> more = faces;
+      for (int g : faces) {
+        const std::vector<int>& near = faces_near(g);
+        more.insert(more.end(), near.begin(), near.end());
+      }
+      std::sort(more.begin(), more.end());
+      more.erase(std::unique(more.begin(), more.end()), more.end());
+      faces.swap(more);
+    }
     int best_bad = bad0, best_f = f0;
     double best_E = vertex_energy(v, delta, nullptr);
     const double E0 = best_E;
@@ -600,7 +610,8 @@ void search_folds(Untangler& U, const TriMesh& S, const TriMesh& T, BarycentricM
     for (int v : corners) {
       const int f0 = P.elem(v);
       const Eigen::Vector3d b0 = P.bary.row(v).transpose();
-      removed += U.search_vertex(v, opt.search_grid, opt.delta_end, opt.degenerate_tol, opt.search_max_mips);
+      removed += U.search_vertex(v, opt.search_grid, opt.search_rings, opt.delta_end, opt.degenerate_tol,
+                                  opt.search_max_mips);
       if (P.elem(v) == f0 && P.bary.row(v).transpose() == b0) continue;
       moved[v] = 1;
       for (int q = U.inc_s.begin(v); q < U.inc_s.end(v); ++q)

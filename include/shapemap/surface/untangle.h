@@ -69,15 +69,17 @@ struct UntangleOptions {
   bool reseat_bridges = false;
   // Re-seating search: > 0 replaces the regions' relaxation by this many sweeps over the corners
   // of the flipped and collapsed triangles, each corner's image tried at every point of a
-  // barycentric grid (search_grid + 1 points along an edge) on the target faces near its own and
-  // its neighbours' images, and put where the fewest triangles around it are folded, then the
-  // energy E above (at delta_end) is lowest; kept where the folds around it fall, or stay and
+  // barycentric grid (search_grid + 1 points along an edge) on the target faces within
+  // search_rings vertex rings (rounded up to even) of its own and its neighbours' images, and
+  // put where the fewest triangles around it are folded, then the energy E above (at
+  // delta_end) is lowest; kept where the folds around it fall, or stay and
   // the energy falls. For folds the relaxation cannot reach: on crumpled parts of real scans
   // (the camel's ears, sheets folded back onto themselves) a tangent-plane step does not cross
   // the crease, and a collapsed triangle gives every rotation-invariant energy a zero gradient.
   // search() sets it for stage 6.
   int search_sweeps = 0;
   int search_grid = 8;
+  int search_rings = 4;  // 2: camel-gallop alike, cat -> lion 2 / 15 folds left instead of 0 / 12
   // ... and a corner is not moved where a face around it that is not folded ends with a
   // conformal distortion MIPS - 2 above this, or above its own before when it was not folded,
   // whichever is larger.
