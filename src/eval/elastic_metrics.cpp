@@ -49,20 +49,22 @@ Eigen::VectorXd per_face(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, con
 
 }  // namespace
 
+double face_conformal_distortion(const Eigen::Vector3d& e1, const Eigen::Vector3d& e2, const Eigen::Vector3d& d1,
+                                 const Eigen::Vector3d& d2) {
+  const double G00 = e1.dot(e1), G01 = e1.dot(e2), G11 = e2.dot(e2);
+  const double detG = e1.cross(e2).squaredNorm();
+  const double g00 = d1.dot(d1), g01 = d1.dot(d2), g11 = d2.dot(d2);
+  const double detg = d1.cross(d2).squaredNorm();
+  if (!(detG > 0)) return std::numeric_limits<double>::quiet_NaN();
+  // tr(G^-1 g) and det(G^-1 g) = detg/detG; MIPS = tr / sqrt(det) = s1/s2 + s2/s1
+  const double tr = (G11 * g00 - 2 * G01 * g01 + G00 * g11) / detG;
+  const double det = detg / detG;
+  return det > 0 ? std::max(0.0, tr / std::sqrt(det) - 2.0) : std::numeric_limits<double>::infinity();
+}
+
 Eigen::VectorXd conformal_distortion(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
                                      const Eigen::MatrixXi& F) {
-  return per_face(X, Y, F, [](const Eigen::Vector3d& e1, const Eigen::Vector3d& e2, const Eigen::Vector3d& d1,
-                              const Eigen::Vector3d& d2) {
-    const double G00 = e1.dot(e1), G01 = e1.dot(e2), G11 = e2.dot(e2);
-    const double detG = e1.cross(e2).squaredNorm();
-    const double g00 = d1.dot(d1), g01 = d1.dot(d2), g11 = d2.dot(d2);
-    const double detg = d1.cross(d2).squaredNorm();
-    if (!(detG > 0)) return std::numeric_limits<double>::quiet_NaN();
-    // tr(G^-1 g) and det(G^-1 g) = detg/detG; MIPS = tr / sqrt(det) = s1/s2 + s2/s1
-    const double tr = (G11 * g00 - 2 * G01 * g01 + G00 * g11) / detG;
-    const double det = detg / detG;
-    return det > 0 ? std::max(0.0, tr / std::sqrt(det) - 2.0) : std::numeric_limits<double>::infinity();
-  });
+  return per_face(X, Y, F, face_conformal_distortion);
 }
 
 Eigen::VectorXd area_distortion(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,

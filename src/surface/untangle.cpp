@@ -402,16 +402,12 @@ struct Untangler {
     return c;
   }
 
-  // Conformal distortion MIPS - 2 of the mapped face t (as conformal_distortion; +inf when
-  // its image has no area).
+  // Conformal distortion MIPS - 2 of the mapped face t (surface_distortion.h; +inf when its
+  // image has no area, NaN when its rest face has none: never over a limit).
   double face_mips(int t) const {
     const Eigen::Vector3d x0 = Xs.row(Fs(t, 0)), y0 = Y.row(Fs(t, 0));
-    const Eigen::Vector3d e1 = Eigen::Vector3d(Xs.row(Fs(t, 1))) - x0, e2 = Eigen::Vector3d(Xs.row(Fs(t, 2))) - x0;
-    const Eigen::Vector3d d1 = Eigen::Vector3d(Y.row(Fs(t, 1))) - y0, d2 = Eigen::Vector3d(Y.row(Fs(t, 2))) - y0;
-    const double G00 = e1.dot(e1), G01 = e1.dot(e2), G11 = e2.dot(e2), detG = G00 * G11 - G01 * G01;
-    const double g00 = d1.dot(d1), g01 = d1.dot(d2), g11 = d2.dot(d2), detg = g00 * g11 - g01 * g01;
-    if (!(detG > 0) || !(detg > 0)) return std::numeric_limits<double>::infinity();
-    return std::max(0.0, (G11 * g00 - 2 * G01 * g01 + G00 * g11) / detG / std::sqrt(detg / detG) - 2.0);
+    return face_conformal_distortion(Eigen::Vector3d(Xs.row(Fs(t, 1))) - x0, Eigen::Vector3d(Xs.row(Fs(t, 2))) - x0,
+                                     Eigen::Vector3d(Y.row(Fs(t, 1))) - y0, Eigen::Vector3d(Y.row(Fs(t, 2))) - y0);
   }
   // Per face around v (inc_s order), the MIPS - 2 it may end with when it is not folded:
   // max_mips, or its own now when it is not folded now and above that. A move or a step of v

@@ -37,6 +37,10 @@ struct SurfaceDistortion {
 // Per-face conformal distortion MIPS - 2 = tr(G)/sqrt(det G) - 2 with G = g^{-1} g the
 // distortion tensor of rest X (n×3) -> deformed Y (n×3) on faces F (m×3). Collapsed
 // triangles get +inf. m×1.
+// The same for one face: e1, e2 its rest edge vectors x1 - x0, x2 - x0, d1, d2 their images
+// (NaN for a degenerate rest face).
+double face_conformal_distortion(const Eigen::Vector3d& e1, const Eigen::Vector3d& e2, const Eigen::Vector3d& d1,
+                                 const Eigen::Vector3d& d2);
 Eigen::VectorXd conformal_distortion(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
                                      const Eigen::MatrixXi& F);
 // Per-face log(area_Y / area_X) (unclamped; -inf for collapsed). m×1.
