@@ -80,7 +80,8 @@ SurfaceUntangling untangle_surface_maps(const TriMesh& A, const TriMesh& B, Bary
   }
   if (u.bridges && !bridged) bridges();  // the passes ended on their cap
   // Stage 6: the search over the corners of what is left, then stage 4 for the slivers its
-  // moves leave (a corner is put where the fewest faces around it fold, whatever their shape).
+  // moves leave (a corner goes where the fewest faces around it fold; their shapes are only
+  // held under UntangleOptions::search_max_mips).
   u.search = opt.search_untangle && count() > 0;
   if (u.search) {
     stage(opt.search_untangling, u.search_AB, u.search_BA, true);
