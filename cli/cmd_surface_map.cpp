@@ -161,6 +161,11 @@ CLI::App* add_surface_map_command(CLI::App& parent, SurfaceMapArgs& a) {
                   "within this geodesic distance of a target feature, unit-area surfaces) in Sec. "
                   "6.2's conflict test; 0: the generating triple alone")
       ->check(CLI::NonNegativeNumber);
+  app->add_option("--matching-search", a.bim.matching_search_sweeps,
+                  "BIM: change the selected group's feature matching at most this many times, one "
+                  "correspondence or one swap at a time, while the blend within it gains integrated "
+                  "confidence (docs/methods.md, \"The matching search\"); 0: Sec. 6.2's groups alone")
+      ->check(CLI::NonNegativeNumber);
   app->add_option("--samples", a.bim.num_even, "BIM: |P_even| evenly spread samples")->check(CLI::Range(16, 4096));
   add_elastic_options(app, a.elastic, a.truth_ab);
   return app;

@@ -710,60 +710,185 @@ struct BimDirection {
     R.timings.push_back({"eigenvectors_groups", seconds_since(t0)});
   }
 
-  // Sec. 7: each group's blended map; the one with the best integrated confidence is R.map.
-  void blend() {
-    // Sec. 7: blended map of each group; keep the one with the best integrated confidence.
-    auto t0 = Clock::now();
+  // Sec. 7: the blend of the maps G (binary weights): the confidence-weighted centroid of
+  // their images P[a] (bim_apply of G[a]), moved to its closest point on the target, with
+  // its integrated confidence (Sec. 6.2), the criterion blends are compared by. hints: a
+  // previous blend's closest points, to start the queries from.
+  struct Blended {
+    std::vector<ClosestPointResult> cp;
+    Eigen::VectorXd conf;
+    double ic = -1;
+  };
+  Blended blend_maps(const std::vector<int>& G, const std::vector<const Eigen::MatrixXd*>& P,
+                     const std::vector<ClosestPointResult>* hints = nullptr) const {
     const int n = src.mesh.num_vertices();
-    double best_ic = -1;
-    std::vector<ClosestPointResult> best_cp;
-    Eigen::MatrixXd best_X;
+    const int ng = int(G.size());
+    Eigen::MatrixXd Ceven(ne, ng);
+    for (int a = 0; a < ng; ++a) Ceven.col(a) = C.row(G[a]).transpose();
+    Eigen::MatrixXd Cv = src.interp * Ceven;  // n × ng, b_i(p) = c_i(p) w_i, w binary
+    Eigen::MatrixXd X = Eigen::MatrixXd::Zero(n, 3);
+    Eigen::VectorXd wsum = Eigen::VectorXd::Zero(n);
+    for (int a = 0; a < ng; ++a) {
+      X += Cv.col(a).asDiagonal() * *P[a];
+      wsum += Cv.col(a);
+    }
+    for (int v = 0; v < n; ++v) {
+      if (wsum(v) > 1e-12) {
+        X.row(v) /= wsum(v);
+      } else {
+        Eigen::RowVector3d m = Eigen::RowVector3d::Zero();
+        for (int a = 0; a < ng; ++a) m += P[a]->row(v);
+        X.row(v) = m / ng;
+      }
+    }
+    // Closest point on the target to the weighted Euclidean centroid.
+    Blended b;
+    if (hints) b.cp = *hints;
+    dst.closest->query(X, b.cp, hints != nullptr);
+    for (int v = 0; v < n; ++v) {
+      Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
+      for (int k = 0; k < 3; ++k) p += b.cp[v].bary(k) * dst.mesh.V.row(dst.mesh.F(b.cp[v].elem, k));
+      X.row(v) = p;
+    }
+    b.conf = map_confidence(src.mesh, X);
+    b.ic = b.conf.dot(src.mass);  // ∫ c_f dA on the unit-area source
+    return b;
+  }
+
+  // The images of the candidates G at every source vertex, in parallel.
+  std::vector<Eigen::MatrixXd> images_of(const std::vector<int>& G) const {
+    std::vector<Eigen::MatrixXd> P(G.size());
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int a = 0; a < int(G.size()); ++a) P[a] = bim_apply(src, dst, cand[G[a]].mobius);
+    return P;
+  }
+
+  // Sec. 7: each group's blended map; the one with the best integrated confidence is R.map
+  // (after the matching search, when it finds a better one).
+  void blend() {
+    auto t0 = Clock::now();
+    Blended best;
     for (size_t g = 0; g < groups.size(); ++g) {
-      const auto& G = groups[g];
-      const int ng = int(G.size());
-      Eigen::MatrixXd Ceven(ne, ng);
-      for (int a = 0; a < ng; ++a) Ceven.col(a) = C.row(G[a]).transpose();
-      Eigen::MatrixXd Cv = src.interp * Ceven;  // n × ng, b_i(p) = c_i(p) w_i, w binary
-      std::vector<Eigen::MatrixXd> P(ng);
-  #pragma omp parallel for schedule(dynamic, 1)
-      for (int a = 0; a < ng; ++a) P[a] = bim_apply(src, dst, cand[G[a]].mobius);
-      Eigen::MatrixXd X = Eigen::MatrixXd::Zero(n, 3);
-      Eigen::VectorXd wsum = Eigen::VectorXd::Zero(n);
-      for (int a = 0; a < ng; ++a) {
-        X += Cv.col(a).asDiagonal() * P[a];
-        wsum += Cv.col(a);
-      }
-      for (int v = 0; v < n; ++v) {
-        if (wsum(v) > 1e-12) {
-          X.row(v) /= wsum(v);
-        } else {
-          Eigen::RowVector3d m = Eigen::RowVector3d::Zero();
-          for (int a = 0; a < ng; ++a) m += P[a].row(v);
-          X.row(v) = m / ng;
-        }
-      }
-      // Closest point on the target to the weighted Euclidean centroid.
-      std::vector<ClosestPointResult> cp = dst.closest->query(X);
-      for (int v = 0; v < n; ++v) {
-        Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
-        for (int k = 0; k < 3; ++k) p += cp[v].bary(k) * dst.mesh.V.row(dst.mesh.F(cp[v].elem, k));
-        X.row(v) = p;
-      }
-      Eigen::VectorXd cf = map_confidence(src.mesh, X);
-      double ic = cf.dot(src.mass);  // ∫ c_f dA on the unit-area source
-      R.group_confidence.push_back(ic);
-      R.group_sizes.push_back(ng);
-      if (ic > best_ic) {
-        best_ic = ic;
+      std::vector<Eigen::MatrixXd> P = images_of(groups[g]);
+      std::vector<const Eigen::MatrixXd*> ptr;
+      for (const auto& m : P) ptr.push_back(&m);
+      Blended b = blend_maps(groups[g], ptr);
+      R.group_confidence.push_back(b.ic);
+      R.group_sizes.push_back(int(groups[g].size()));
+      if (b.ic > best.ic) {
         R.selected_group = int(g);
-        R.confidence = cf;
-        best_cp = std::move(cp);
-        best_X = X;
+        best = std::move(b);
       }
       report(progress, "bim/blend", double(g + 1) / groups.size());
     }
-    R.integrated_confidence = best_ic;
-    for (int i : groups[R.selected_group]) {
+    std::vector<int> selected = groups[R.selected_group];
+    R.timings.push_back({"blend", seconds_since(t0)});
+    if (opt.matching_search_sweeps > 0 && opt.landmarks_A.empty()) search_matching(best, selected);
+    output(best, selected);
+  }
+
+  // The feature matching the maps G stand for (source feature -> target feature, -1: none).
+  // A group's maps never conflict (Sec. 6.2), so their generating pairs form one matching.
+  std::vector<int> matching_of(const std::vector<int>& G) const {
+    std::vector<int> M(src.features.size(), -1);
+    for (int i : G)
+      for (int k = 0; k < 3; ++k) M[cand[i].source[k]] = cand[i].target[k];
+    return M;
+  }
+
+  // Every candidate whose three generating correspondences are in the matching M.
+  std::vector<int> maps_within(const std::vector<int>& M) const {
+    std::vector<int> G;
+    for (int i = 0; i < K; ++i)
+      if (M[cand[i].source[0]] == cand[i].target[0] && M[cand[i].source[1]] == cand[i].target[1] &&
+          M[cand[i].source[2]] == cand[i].target[2])
+        G.push_back(i);
+    return G;
+  }
+
+  // Our addition (docs/methods.md, "The matching search"): Sec. 6.2's greedy grouping can
+  // split the correct matching between groups when wrong maps agree with part of it on the
+  // sphere (camel-gallop 08 -> 09: the tail and a hip go with one group, the hind feet with
+  // another). Starting from the selected group's matching, change one correspondence at a
+  // time (a source feature to another target feature or to none, or two source features
+  // swapping their targets, as in Fig. 14's limb swaps) and keep the change that most raises
+  // the integrated confidence of the blend of every candidate within the matching, until
+  // none does. The result replaces the selected group only when its blend is better.
+  void search_matching(Blended& best, std::vector<int>& selected) {
+    auto t0 = Clock::now();
+    const int n1 = int(src.features.size()), n2 = int(dst.features.size());
+    std::vector<int> M = matching_of(selected);
+    std::vector<int> G = maps_within(M);
+    std::unordered_map<int, Eigen::MatrixXd> image;  // the maps within M
+    auto evaluate = [&](const std::vector<int>& Mt, std::vector<int>& Gt, bool keep_images) {
+      Gt = maps_within(Mt);
+      if (Gt.empty()) return Blended{};
+      std::vector<int> missing;
+      for (int i : Gt)
+        if (!image.count(i)) missing.push_back(i);
+      std::vector<Eigen::MatrixXd> fresh = images_of(missing);
+      std::vector<const Eigen::MatrixXd*> ptr;
+      for (size_t a = 0, f = 0; a < Gt.size(); ++a)
+        ptr.push_back(image.count(Gt[a]) ? &image.at(Gt[a]) : &fresh[f++]);
+      Blended b = blend_maps(Gt, ptr, &best.cp);
+      if (keep_images) {
+        std::unordered_map<int, Eigen::MatrixXd> kept;
+        for (size_t a = 0, f = 0; a < Gt.size(); ++a)
+          kept[Gt[a]] = image.count(Gt[a]) ? std::move(image.at(Gt[a])) : std::move(fresh[f++]);
+        image = std::move(kept);
+      }
+      return b;
+    };
+    Blended cur = evaluate(M, G, true);
+    R.matching_search.start_confidence = cur.ic;
+    for (int sweep = 0; sweep < opt.matching_search_sweeps; ++sweep) {
+      std::vector<std::vector<int>> moves;  // candidate matchings one change away from M
+      for (int s = 0; s < n1; ++s) {
+        for (int t = -1; t < n2; ++t) {
+          if (t == M[s]) continue;
+          std::vector<int> Mt = M;
+          for (int& x : Mt)
+            if (t >= 0 && x == t) x = -1;
+          Mt[s] = t;
+          moves.push_back(std::move(Mt));
+        }
+        for (int u = s + 1; u < n1; ++u)
+          if (M[s] >= 0 && M[u] >= 0) {
+            std::vector<int> Mt = M;
+            std::swap(Mt[s], Mt[u]);
+            moves.push_back(std::move(Mt));
+          }
+      }
+      int pick = -1;
+      double pick_ic = cur.ic + opt.matching_search_min_gain;
+      for (size_t m = 0; m < moves.size(); ++m) {
+        std::vector<int> Gt;
+        Blended b = evaluate(moves[m], Gt, false);
+        ++R.matching_search.evaluations;
+        if (b.ic > pick_ic) pick = int(m), pick_ic = b.ic;
+      }
+      report(progress, "bim/matching_search", double(sweep + 1) / opt.matching_search_sweeps);
+      if (pick < 0) break;
+      M = moves[pick];
+      cur = evaluate(M, G, true);
+      ++R.matching_search.changes;
+    }
+    R.matching_search.ran = true;
+    R.matching_search.final_confidence = cur.ic;
+    if (cur.ic > best.ic) {
+      R.matching_search.kept = true;
+      best = std::move(cur);
+      selected = G;
+    }
+    R.timings.push_back({"matching_search", seconds_since(t0)});
+  }
+
+  // R's map, confidences and selected maps from the chosen blend of the maps G.
+  void output(const Blended& best, const std::vector<int>& G) {
+    const int n = src.mesh.num_vertices();
+    R.integrated_confidence = best.ic;
+    R.confidence = best.conf;
+    for (int i : G) {
       BIMMapInfo info;
       info.index = i;
       for (int k = 0; k < 3; ++k) {
@@ -776,13 +901,12 @@ struct BimDirection {
     R.map.elem.resize(n);
     R.map.bary.resize(n, 3);
     for (int v = 0; v < n; ++v) {
-      R.map.elem(v) = best_cp[v].elem;
-      Eigen::Vector3d b = best_cp[v].bary.head<3>().cwiseMax(0.0);
+      R.map.elem(v) = best.cp[v].elem;
+      Eigen::Vector3d b = best.cp[v].bary.head<3>().cwiseMax(0.0);
       R.map.bary.row(v) = (b / b.sum()).transpose();
     }
     to_input_faces(dst.mesh.F, dst.F_input, R.map);
     R.positions = map_positions(R.map, dst.V_input, dst.F_input);
-    R.timings.push_back({"blend", seconds_since(t0)});
   }
 };
 

@@ -118,6 +118,10 @@ nlohmann::json direction_json(const BIMDirectionResult& r) {
   j["from_reverse"] = r.from_reverse;
   if (r.from_reverse) j["own_integrated_confidence"] = r.own_integrated_confidence;
   j["best_single_map_confidence"] = r.best_candidate_confidence;
+  const auto& ms = r.matching_search;
+  if (ms.ran)
+    j["matching_search"] = {{"start_confidence", ms.start_confidence}, {"final_confidence", ms.final_confidence},
+                            {"changes", ms.changes}, {"evaluations", ms.evaluations}, {"kept", ms.kept}};
   nlohmann::json sel = nlohmann::json::array();
   for (auto& m : r.selected)
     sel.push_back({{"candidate", m.index},
@@ -169,6 +173,7 @@ void run_bim(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& req, c
   j["parameters"] = {{"max_features", o.max_features},     {"num_even", o.num_even},
                      {"max_candidates", o.max_candidates}, {"candidate_pool", o.candidate_pool},
                      {"implied_radius", o.implied_radius},  {"sigma", o.sigma},
+                     {"matching_search", o.matching_search_sweeps},
                      {"eigenvalue_fraction", o.eigenvalue_fraction},
                      {"entry_fraction", o.entry_fraction}, {"feature_radius", o.feature_radius},
                      {"symmetric", o.symmetric}, {"reverse_candidates", o.reverse_candidates}};

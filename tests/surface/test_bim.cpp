@@ -73,6 +73,7 @@ TEST(Bim, BlendOnRotatedSphere) {
   EXPECT_LT(err.mean(), 0.04);  // unit sphere, edge length about 0.1
   EXPECT_LT(err.maxCoeff(), 0.1);
   EXPECT_GT(r.AB.integrated_confidence, 0.95);
+  EXPECT_FALSE(r.AB.matching_search.ran);  // landmarks: the correspondences are given
   double maxerr_ba = (r.BA.positions - A.V).rowwise().norm().maxCoeff();
   EXPECT_LT(maxerr_ba, 0.1);
   validate_map(r.AB.map, A.num_vertices(), B.num_faces(), 3, "AB");

@@ -62,6 +62,13 @@ struct BIMOptions {
   // one. So a map that sends a limb onto the wrong limb is not blended with maps that send it
   // right. 0: the generating correspondences alone, as the paper.
   double implied_radius = 0.05;
+  // Our addition (docs/methods.md, "The matching search"): after Sec. 6.2's groups, change
+  // the selected group's feature matching one correspondence (or one swap of two) at a time
+  // while the blend of every candidate within it gains integrated confidence; at most this
+  // many changes (0: off, the paper's groups alone; never with landmarks). A change must
+  // gain at least matching_search_min_gain.
+  int matching_search_sweeps = 8;
+  double matching_search_min_gain = 1e-4;
   // --- Sec. 7: blend and output
   bool symmetric = false;           // also the map B -> A
   // With symmetric: the direction whose blend has the lower integrated confidence takes the
@@ -170,6 +177,14 @@ struct BIMDirectionResult {
   bool from_reverse = false;        // the inverse of the other direction's blend (reverse_candidates)
   double own_integrated_confidence = 0;  // with from_reverse: this direction's own blend's
   double best_candidate_confidence = 0;  // best single Möbius map (mean c_i at P_even)
+  struct MatchingSearch {
+    bool ran = false;
+    double start_confidence = 0;    // blend of every candidate within the selected group's matching
+    double final_confidence = 0;    // ... within the matching the search ended on
+    int changes = 0;                // correspondences changed (each the best of its sweep)
+    int evaluations = 0;            // blends evaluated
+    bool kept = false;              // its blend replaced the selected group's (it was better)
+  } matching_search;
   std::vector<std::pair<std::string, double>> timings;
 };
 
