@@ -34,6 +34,8 @@ Outcome run_pair(std::uint64_t seed, PairKind kind, int vertices, bool print_sta
   o.seed = seed;
   // BIM_REVERSE=1: both directions, the less confident one replaced by the other's inverse.
   if (const char* v = std::getenv("BIM_REVERSE")) o.symmetric = o.reverse_candidates = std::atoi(v) != 0;
+  // BIM_MATCHING_SEARCH=N: at most N changes of the matching search (0: the paper's groups alone).
+  if (const char* v = std::getenv("BIM_MATCHING_SEARCH")) o.matching_search_sweeps = std::atoi(v);
   auto t0 = std::chrono::steady_clock::now();
   BIMResult r = blended_intrinsic_maps(p.A, p.B, o);
   Outcome out;
