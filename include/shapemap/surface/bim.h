@@ -173,7 +173,7 @@ struct BIMDirectionResult {
   int num_eigenvectors_used = 0;    // within eigenvalue_fraction of the top
   std::vector<double> group_confidence;  // integrated confidence of each group's blend
   std::vector<int> group_sizes;
-  int selected_group = -1;
+  int selected_group = -1;         // the best of Sec. 6.2's groups (matching_search.kept: not the one output)
   bool from_reverse = false;        // the inverse of the other direction's blend (reverse_candidates)
   double own_integrated_confidence = 0;  // with from_reverse: this direction's own blend's
   double best_candidate_confidence = 0;  // best single Möbius map (mean c_i at P_even)
