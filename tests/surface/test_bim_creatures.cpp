@@ -9,6 +9,7 @@
 #include "shapemap/maps.h"
 #include "shapemap/surface/bim.h"
 #include <gtest/gtest.h>
+#include <omp.h>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -135,4 +136,12 @@ TEST(BimCreatures, MatchingSearchGrowsASingleMapsMatching) {
               c1.mean, ms.changes, ms.evaluations, c2.within_0_1, c2.mean);
   EXPECT_GE(c2.within_0_1, 0.90);
   EXPECT_LT(c2.mean, c1.mean);
+  // The same search on one thread: its blends are computed in parallel, the result must be the same.
+  const int threads = omp_get_max_threads();
+  omp_set_num_threads(1);
+  BIMResult serial = blended_intrinsic_maps(p.A, p.B, o);
+  omp_set_num_threads(threads);
+  EXPECT_EQ(serial.AB.matching_search.changes, ms.changes);
+  EXPECT_EQ(serial.AB.map.elem, searched.AB.map.elem);
+  EXPECT_EQ((serial.AB.map.bary - searched.AB.map.bary).cwiseAbs().maxCoeff(), 0.0);
 }
