@@ -806,6 +806,30 @@ struct BimDirection {
     return G;
   }
 
+  // The matchings one change away from M: a source feature given another target feature
+  // (taken from its owner) or none, or two source features swapping their targets.
+  std::vector<std::vector<int>> matching_moves(const std::vector<int>& M) const {
+    const int n1 = int(M.size()), n2 = int(dst.features.size());
+    std::vector<std::vector<int>> moves;
+    for (int s = 0; s < n1; ++s) {
+      for (int t = -1; t < n2; ++t) {
+        if (t == M[s]) continue;
+        std::vector<int> Mt = M;
+        for (int& x : Mt)
+          if (t >= 0 && x == t) x = -1;
+        Mt[s] = t;
+        moves.push_back(std::move(Mt));
+      }
+      for (int u = s + 1; u < n1; ++u)
+        if (M[s] >= 0 && M[u] >= 0) {
+          std::vector<int> Mt = M;
+          std::swap(Mt[s], Mt[u]);
+          moves.push_back(std::move(Mt));
+        }
+    }
+    return moves;
+  }
+
   // Our addition (docs/methods.md, "The matching search"): Sec. 6.2's greedy grouping can
   // split the correct matching between groups when wrong maps agree with part of it on the
   // sphere (camel-gallop 08 -> 09: the tail and a hip go with one group, the hind feet with
@@ -816,7 +840,6 @@ struct BimDirection {
   // none does. The result replaces the selected group only when its blend is better.
   void search_matching(Blended& best, std::vector<int>& selected) {
     auto t0 = Clock::now();
-    const int n1 = int(src.features.size()), n2 = int(dst.features.size());
     std::vector<int> M = matching_of(selected);
     std::vector<int> G = maps_within(M);
     std::unordered_map<int, Eigen::MatrixXd> image;  // the maps within M
@@ -842,23 +865,19 @@ struct BimDirection {
     Blended cur = evaluate(M, G, true);
     R.matching_search.start_confidence = cur.ic;
     for (int sweep = 0; sweep < opt.matching_search_sweeps; ++sweep) {
-      std::vector<std::vector<int>> moves;  // candidate matchings one change away from M
-      for (int s = 0; s < n1; ++s) {
-        for (int t = -1; t < n2; ++t) {
-          if (t == M[s]) continue;
-          std::vector<int> Mt = M;
-          for (int& x : Mt)
-            if (t >= 0 && x == t) x = -1;
-          Mt[s] = t;
-          moves.push_back(std::move(Mt));
-        }
-        for (int u = s + 1; u < n1; ++u)
-          if (M[s] >= 0 && M[u] >= 0) {
-            std::vector<int> Mt = M;
-            std::swap(Mt[s], Mt[u]);
-            moves.push_back(std::move(Mt));
-          }
+      std::vector<std::vector<int>> moves = matching_moves(M);
+      // The sweep's work: the images it must compute and one projection per blend. It is
+      // not started when it would take the search past its budget (many features).
+      long long work = 0;
+      for (const auto& Mt : moves) {
+        ++work;
+        for (int i : maps_within(Mt)) work += !image.count(i);
       }
+      if (R.matching_search.work + work > opt.matching_search_max_work) {
+        R.matching_search.over_budget = true;
+        break;
+      }
+      R.matching_search.work += work;
       int pick = -1;
       double pick_ic = cur.ic + opt.matching_search_min_gain;
       for (size_t m = 0; m < moves.size(); ++m) {

@@ -125,7 +125,7 @@ void options_fields(IO&& io, O& o) {
   io(o.max_features, o.min_features, o.feature_radius, o.max_candidates, o.num_even, o.interpolation_sigma,
      o.candidate_pool, o.sigma, o.eigenvalue_fraction, o.entry_fraction, o.num_eigenvectors, o.max_groups,
      o.symmetrize_consistency, o.consistency_skip, o.implied_radius, o.matching_search_sweeps,
-     o.matching_search_min_gain, o.symmetric, o.reverse_candidates, o.seed,
+     o.matching_search_min_gain, o.matching_search_max_work, o.symmetric, o.reverse_candidates, o.seed,
      o.heat_t_factor, o.min_vertices);
 }
 

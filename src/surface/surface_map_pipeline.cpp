@@ -121,7 +121,8 @@ nlohmann::json direction_json(const BIMDirectionResult& r) {
   const auto& ms = r.matching_search;
   if (ms.ran)
     j["matching_search"] = {{"start_confidence", ms.start_confidence}, {"final_confidence", ms.final_confidence},
-                            {"changes", ms.changes}, {"evaluations", ms.evaluations}, {"kept", ms.kept}};
+                            {"changes", ms.changes}, {"evaluations", ms.evaluations}, {"kept", ms.kept},
+                            {"work", ms.work}, {"over_budget", ms.over_budget}};
   nlohmann::json sel = nlohmann::json::array();
   for (auto& m : r.selected)
     sel.push_back({{"candidate", m.index},

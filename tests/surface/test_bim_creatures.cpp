@@ -144,4 +144,12 @@ TEST(BimCreatures, MatchingSearchGrowsASingleMapsMatching) {
   EXPECT_EQ(serial.AB.matching_search.changes, ms.changes);
   EXPECT_EQ(serial.AB.map.elem, searched.AB.map.elem);
   EXPECT_EQ((serial.AB.map.bary - searched.AB.map.bary).cwiseAbs().maxCoeff(), 0.0);
+  // Its budget: a sweep that would exceed it is not started.
+  EXPECT_FALSE(ms.over_budget);
+  EXPECT_GT(ms.work, ms.evaluations);  // each blend's projection, and the images it computed
+  o.matching_search_max_work = ms.work / 4;
+  BIMResult capped = blended_intrinsic_maps(p.A, p.B, o);
+  EXPECT_TRUE(capped.AB.matching_search.over_budget);
+  EXPECT_LE(capped.AB.matching_search.work, ms.work / 4);
+  EXPECT_LT(capped.AB.matching_search.changes, ms.changes);
 }

@@ -69,6 +69,10 @@ struct BIMOptions {
   // gain at least matching_search_min_gain.
   int matching_search_sweeps = 8;
   double matching_search_min_gain = 1e-4;
+  // Its budget, in images of candidate maps computed plus blends projected (each a pass over
+  // the source's vertices): a change is not searched for when its sweep would go past it
+  // (many feature points: a sweep grows with their number cubed).
+  long long matching_search_max_work = 50000;
   // --- Sec. 7: blend and output
   bool symmetric = false;           // also the map B -> A
   // With symmetric: the direction whose blend has the lower integrated confidence takes the
@@ -184,6 +188,8 @@ struct BIMDirectionResult {
     int changes = 0;                // correspondences changed (each the best of its sweep)
     int evaluations = 0;            // blends evaluated
     bool kept = false;              // its blend replaced the selected group's (it was better)
+    long long work = 0;             // images computed + blends projected (the budget's unit)
+    bool over_budget = false;       // it stopped before a sweep that would exceed the budget
   } matching_search;
   std::vector<std::pair<std::string, double>> timings;
 };
