@@ -157,7 +157,7 @@ def prepare_surface(V, F, seed=1, features=10, samples=256, strict=False, name="
 
 def surface_map(VA, FA, VB, FB, method="bim", landmarks=None, init=None, init_reverse=None, symmetric=False,
                 seed=1, threads=0, features=10, candidates=10000, samples=256, reverse_candidates=True,
-                truth=None, strict=False, elastic_preset="auto", elastic_eta=-1.0, elastic_alpha=20.0,
+                matching_search=8, truth=None, strict=False, elastic_preset="auto", elastic_eta=-1.0, elastic_alpha=20.0,
                 elastic_iterations=300, elastic_injective=False, elastic_partial=False,
                 elastic_keep_worse=False, elastic_untangle=True, elastic_wide_untangle=True,
                 elastic_sliver_untangle=True, elastic_bridge_untangle=True, elastic_search_untangle=True,
@@ -179,7 +179,9 @@ def surface_map(VA, FA, VB, FB, method="bim", landmarks=None, init=None, init_re
     part not re-seated); elastic_search_untangle=False: `--elastic-no-search-untangle` (the folds
     the other stages leave are left);
     elastic_untangle_passes: `--elastic-untangle-passes` (the stages repeated while folds fall);
-    elastic_feature_anchors=False: `--elastic-no-feature-anchors`.
+    elastic_feature_anchors=False: `--elastic-no-feature-anchors`. matching_search: BIM's
+    `--matching-search` (at most this many changes of the selected group's feature matching;
+    0: Sec. 6.2's groups alone; report["bim"][dir]["matching_search"]).
     """
     if method not in ("bim", "elastic"):
         raise ValueError(f"method {method!r}: expected 'bim' or 'elastic'")
@@ -187,7 +189,8 @@ def surface_map(VA, FA, VB, FB, method="bim", landmarks=None, init=None, init_re
         landmarks = ([int(i) for i in landmarks[0]], [int(i) for i in landmarks[1]])
     opts = dict(method=method, symmetric=bool(symmetric), strict=bool(strict), seed=int(seed),
                 features=int(features), candidates=int(candidates), samples=int(samples),
-                reverse_candidates=bool(reverse_candidates), landmarks=landmarks, init=_raw(init),
+                reverse_candidates=bool(reverse_candidates), matching_search=int(matching_search),
+                landmarks=landmarks, init=_raw(init),
                 init_reverse=_raw(init_reverse), truth=_raw(truth), elastic_preset=elastic_preset,
                 elastic_eta=float(elastic_eta), elastic_alpha=float(elastic_alpha),
                 elastic_iterations=int(elastic_iterations), elastic_injective=bool(elastic_injective),

@@ -48,6 +48,16 @@ def test_surface_map_bim(bim, surfaces, pair):
     ev = shapemap.evaluate_surface(VA, FA, VB, FB, bim, truth=truth)
     assert ev["geodesic_within_0_1"] > 0.5
     assert "reversibility" in ev
+    # BIM's matching search (docs/methods.md): on by default, never worse than the groups' best
+    for d in ("AB", "BA"):
+        ms = bim.report["bim"][d]["matching_search"]
+        assert ms["evaluations"] > 0 and not ms["over_budget"]
+        assert bim.report["bim"][d].get("own_integrated_confidence",
+                                        bim.report["bim"][d]["integrated_confidence"]) >= \
+            max(bim.report["bim"][d]["group_integrated_confidence"]) - 1e-12
+    off = shapemap.surface_map(VA, FA, VB, FB, method="bim", symmetric=True, seed=1, matching_search=0, **FAST_BIM)
+    assert "matching_search" not in off.report["bim"]["AB"]
+    assert off.report["parameters"]["matching_search"] == 0
 
 
 def test_points_sparse_vertex_map(bim, surfaces):
