@@ -843,8 +843,8 @@ struct BimDirection {
     std::vector<int> M = matching_of(selected);
     std::vector<int> G = maps_within(M);
     std::unordered_map<int, Eigen::MatrixXd> image;  // the maps within M
-    auto evaluate = [&](const std::vector<int>& Mt, std::vector<int>& Gt, bool keep_images) {
-      Gt = maps_within(Mt);
+    // The blend of the maps Gt (maps_within a matching); keep_images: Gt is the new M's.
+    auto evaluate = [&](const std::vector<int>& Gt, bool keep_images) {
       if (Gt.empty()) return Blended{};
       std::vector<int> missing;
       for (int i : Gt)
@@ -862,16 +862,18 @@ struct BimDirection {
       }
       return b;
     };
-    Blended cur = evaluate(M, G, true);
+    Blended cur = evaluate(G, true);
     R.matching_search.start_confidence = cur.ic;
     for (int sweep = 0; sweep < opt.matching_search_sweeps; ++sweep) {
       std::vector<std::vector<int>> moves = matching_moves(M);
       // The sweep's work: the images it must compute and one projection per blend. It is
       // not started when it would take the search past its budget (many features).
       long long work = 0;
-      for (const auto& Mt : moves) {
+      std::vector<std::vector<int>> within(moves.size());  // each move's maps
+      for (size_t m = 0; m < moves.size(); ++m) {
+        within[m] = maps_within(moves[m]);
         ++work;
-        for (int i : maps_within(Mt)) work += !image.count(i);
+        for (int i : within[m]) work += !image.count(i);
       }
       if (R.matching_search.work + work > opt.matching_search_max_work) {
         R.matching_search.over_budget = true;
@@ -881,15 +883,15 @@ struct BimDirection {
       int pick = -1;
       double pick_ic = cur.ic + opt.matching_search_min_gain;
       for (size_t m = 0; m < moves.size(); ++m) {
-        std::vector<int> Gt;
-        Blended b = evaluate(moves[m], Gt, false);
+        Blended b = evaluate(within[m], false);
         ++R.matching_search.evaluations;
         if (b.ic > pick_ic) pick = int(m), pick_ic = b.ic;
       }
       report(progress, "bim/matching_search", double(sweep + 1) / opt.matching_search_sweeps);
       if (pick < 0) break;
       M = moves[pick];
-      cur = evaluate(M, G, true);
+      G = within[pick];
+      cur = evaluate(G, true);
       ++R.matching_search.changes;
     }
     R.matching_search.ran = true;

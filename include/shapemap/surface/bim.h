@@ -70,8 +70,8 @@ struct BIMOptions {
   int matching_search_sweeps = 8;
   double matching_search_min_gain = 1e-4;
   // Its budget, in images of candidate maps computed plus blends projected (each a pass over
-  // the source's vertices): a change is not searched for when its sweep would go past it
-  // (many feature points: a sweep grows with their number cubed).
+  // the source's vertices): a sweep that would go past it is not started (a sweep's moves,
+  // and the maps within each, grow with the number of feature points).
   long long matching_search_max_work = 50000;
   // --- Sec. 7: blend and output
   bool symmetric = false;           // also the map B -> A
