@@ -150,6 +150,12 @@ CLI::App* add_surface_map_command(CLI::App& parent, SurfaceMapArgs& a) {
                 "--no-reverse-candidates keeps each direction's own blend)");
   app->add_option("--features", a.bim.max_features, "BIM: at most this many AGD feature points per surface")
       ->check(CLI::Range(3, 30));
+  app->add_option("--min-features", a.bim.min_features,
+                  "BIM: fewer AGD maxima than this on a surface: add evenly spread samples up to it")
+      ->check(CLI::Range(3, 30));
+  app->add_option("--feature-radius", a.bim.feature_radius,
+                  "BIM: an AGD maximum must be the largest within this geodesic radius (unit-area surface)")
+      ->check(CLI::PositiveNumber);
   app->add_option("--candidates", a.bim.max_candidates, "BIM: at most this many candidate Möbius maps")
       ->check(CLI::PositiveNumber);
   app->add_option("--candidate-pool", a.bim.candidate_pool,

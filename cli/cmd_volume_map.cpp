@@ -40,6 +40,7 @@ struct VolumeMapArgs {
   std::vector<std::string> landmarks, surface_map, surface_map_meshes;
   int tets = 0;
   std::string auto_surface = "elastic";
+  bool auto_reverse_candidates = true;
   std::string solver = "newton";
   std::string boundary_stage = "auto";
   std::string interior_init = "closest";
@@ -112,6 +113,7 @@ int run_volume_map_command(VolumeMapArgs& a, const GlobalOptions& g) {
   VolumeMapRequest req;
   req.init = choose_init(a);
   req.auto_surface = a.auto_surface;
+  req.auto_reverse_candidates = a.auto_reverse_candidates;
   req.boundary_stage = a.boundary_stage;
   req.interior_init = a.interior_init;
   req.strict = g.strict;
@@ -210,6 +212,9 @@ void add_initialization_options(CLI::App* app, VolumeMapArgs& a) {
                     "refined by elastic correspondence (elastic)")
       ->check(CLI::IsMember({"bim", "elastic"}))
       ->capture_default_str();
+  app->add_flag("--reverse-candidates,!--no-reverse-candidates", a.auto_reverse_candidates,
+                "--init auto: the less confident direction of BIM takes the inverse of the other's "
+                "blend, as surface-map does (default; --no-reverse-candidates keeps each direction's own blend)");
   app->add_option("--tets", a.tets, "Target tet count when tetrahedralizing surfaces (0: default)")
       ->check(in_range(0, kMaxTets));
 }

@@ -23,21 +23,24 @@ std::pair<BarycentricMap, BarycentricMap> surface_map_for_volumes(const TriMesh&
                                                                   bool elastic_refinement,
                                                                   const ElasticSettings* elastic,
                                                                   const std::vector<int>& landmarks_A,
-                                                                  const std::vector<int>& landmarks_B) {
+                                                                  const std::vector<int>& landmarks_B,
+                                                                  bool reverse_candidates) {
   BIMOptions bo;
   bo.symmetric = true;
-  // Each direction's own blend, as measured for the volume maps (BIMOptions::reverse_candidates,
-  // the surface-map default since 3 Dec 2026, has not been measured on the volume benches).
-  bo.reverse_candidates = false;
+  // As surface-map: two directions that agree (docs/methods.md, "Animals and the choice of
+  // direction"; measured on the volume bench in "The automatic start's two directions").
+  bo.reverse_candidates = reverse_candidates;
   std::pair<BarycentricMap, BarycentricMap> maps;
   const bool landmarks = !landmarks_A.empty();
+  const std::string bim_name = std::string(landmarks ? "BIM over landmark triplets" : "BIM") +
+                               (reverse_candidates ? " (reverse candidates)" : "");
   if (landmarks) {  // the user's correspondences: BIM over their triplets, as surface-map does
     landmark_initial_maps(SA, SB, landmarks_A, landmarks_B, maps.first, maps.second, &bo);
-    if (used) *used = "BIM over landmark triplets";
+    if (used) *used = bim_name;
   } else {
     BIMResult bim = blended_intrinsic_maps(SA, SB, bo, progress);
     maps = {bim.AB.map, bim.BA.map};
-    if (used) *used = "BIM";
+    if (used) *used = bim_name;
   }
   const BarycentricMap initAB = maps.first, initBA = maps.second;
   if (!elastic_refinement) return maps;
@@ -60,7 +63,7 @@ std::pair<BarycentricMap, BarycentricMap> surface_map_for_volumes(const TriMesh&
       maps = {el.map_AB, el.map_BA};
       if (used) {
         std::ostringstream s;
-        s << (landmarks ? "BIM over landmark triplets" : "BIM") << " + elastic (eta " << ro.elastic.eta << ", "
+        s << bim_name << " + elastic (eta " << ro.elastic.eta << ", "
           << eta_choice << ")";
         if (landmarks && ro.feature_anchors) s << ", " << landmarks_A.size() << " landmarks as anchors";
         if (ref.untangled)
@@ -72,7 +75,7 @@ std::pair<BarycentricMap, BarycentricMap> surface_map_for_volumes(const TriMesh&
     }
   } catch (const Error&) {
     // Elastic refinement failed internally: keep the BIM maps (reported through `used`).
-    if (used) *used = std::string(landmarks ? "BIM over landmark triplets" : "BIM") + " (elastic refinement failed)";
+    if (used) *used = bim_name + " (elastic refinement failed)";
   }
   return maps;
 }

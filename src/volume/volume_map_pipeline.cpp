@@ -226,7 +226,8 @@ void surface_init(VolumeInput& inA, VolumeInput& inB, const VolumeMapRequest& re
     }
     std::string used;
     std::tie(sAB, sBA) =
-        surface_map_for_volumes(SA, SB, progress, &used, req.auto_surface == "elastic", nullptr, LA, LB);
+        surface_map_for_volumes(SA, SB, progress, &used, req.auto_surface == "elastic", nullptr, LA, LB,
+                                req.auto_reverse_candidates);
     run.init_detail = "auto (" + used + ")";
   }
   i12 = surface_initial_map(inA.mesh, inB.mesh, SA, SB, sAB);

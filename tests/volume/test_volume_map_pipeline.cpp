@@ -66,6 +66,7 @@ TEST(SurfaceMapPipeline, InvertingTheIdentityGivesTheIdentity) {
 // alone. On a generated pair whose refinement leaves folds, the automatic initialization's
 // maps are the surface-map command's (with the same BIM options), bit for bit, have no more
 // flipped or collapsed triangles than the refinement alone, and its description names the stage.
+// Since 6 Dec 2026 its default is surface-map's (reverse candidates): checked the same way.
 TEST(VolumeMapPipeline, AutoInitSurfaceMapsAreTheSurfaceMapCommands) {
   const GeneratedPair pair = make_creature_pair(2, PairKind::NonIsometric, 1200);
   const TriMesh &A = pair.A, &B = pair.B;
@@ -75,7 +76,7 @@ TEST(VolumeMapPipeline, AutoInitSurfaceMapsAreTheSurfaceMapCommands) {
   };
   SurfaceMapRequest req;
   req.method = "elastic";
-  req.bim.reverse_candidates = false;  // as surface_map_for_volumes
+  req.bim.reverse_candidates = false;  // each direction's own blend leaves folds on this pair
   req.elastic.iterations = 2;  // a short refinement leaves folds for the stage to work on
   req.elastic.untangle = false;
   const SurfaceMapRun alone = run_surface_map(A, B, req);
@@ -84,11 +85,22 @@ TEST(VolumeMapPipeline, AutoInitSurfaceMapsAreTheSurfaceMapCommands) {
   req.elastic.untangle = true;
   const SurfaceMapRun full = run_surface_map(A, B, req);
   std::string used;
-  const auto [sAB, sBA] = surface_map_for_volumes(A, B, {}, &used, true, &req.elastic);
+  const auto [sAB, sBA] = surface_map_for_volumes(A, B, {}, &used, true, &req.elastic, {}, {}, false);
   EXPECT_NE(used.find("untangle"), std::string::npos) << used;
+  EXPECT_EQ(used.find("reverse candidates"), std::string::npos) << used;
   EXPECT_EQ(sAB.elem, full.AB.elem);
   EXPECT_EQ(sAB.bary, full.AB.bary);
   EXPECT_EQ(sBA.elem, full.BA.elem);
   EXPECT_EQ(sBA.bary, full.BA.bary);
   EXPECT_LT(bad(A, B, sAB) + bad(B, A, sBA), bad_alone);
+  // The default: surface-map's default BIM options.
+  req.bim = BIMOptions{};
+  ASSERT_TRUE(req.bim.reverse_candidates);
+  const SurfaceMapRun dflt = run_surface_map(A, B, req);
+  const auto [dAB, dBA] = surface_map_for_volumes(A, B, {}, &used, true, &req.elastic);
+  EXPECT_NE(used.find("reverse candidates"), std::string::npos) << used;
+  EXPECT_EQ(dAB.elem, dflt.AB.elem);
+  EXPECT_EQ(dAB.bary, dflt.AB.bary);
+  EXPECT_EQ(dBA.elem, dflt.BA.elem);
+  EXPECT_EQ(dBA.bary, dflt.BA.bary);
 }

@@ -232,8 +232,10 @@ BarycentricMap surface_initial_map(const TetMesh& A, const TetMesh& B, const Tri
 // receives a short description of the method. elastic: the elastic settings (null: the
 // surface-map command's defaults). landmarks_A/B (vertices of SA / SB, k >= 3 pairs, or
 // none): the initial maps are BIM over landmark triplets and the landmarks anchor the
-// elastic refinement, as `surface-map --method elastic --landmarks` does. (elastic_refinement,
-// elastic, landmarks: added, backward compatible.)
+// elastic refinement, as `surface-map --method elastic --landmarks` does. reverse_candidates:
+// BIMOptions::reverse_candidates (surface-map's default: the less confident direction takes
+// the inverse of the other's blend). (elastic_refinement, elastic, landmarks, reverse_candidates:
+// added, backward compatible.)
 struct ElasticSettings;
 std::pair<BarycentricMap, BarycentricMap> surface_map_for_volumes(const TriMesh& SA,
                                                                   const TriMesh& SB,
@@ -242,7 +244,8 @@ std::pair<BarycentricMap, BarycentricMap> surface_map_for_volumes(const TriMesh&
                                                                   bool elastic_refinement = true,
                                                                   const ElasticSettings* elastic = nullptr,
                                                                   const std::vector<int>& landmarks_A = {},
-                                                                  const std::vector<int>& landmarks_B = {});
+                                                                  const std::vector<int>& landmarks_B = {},
+                                                                  bool reverse_candidates = true);
 
 // Locates positions X (k×3) in the tet mesh M: a containing tet (or the closest one);
 // rows listed in `boundary_rows` are instead snapped to the closest point of M's
