@@ -224,3 +224,22 @@ TEST(ElasticCli, DefaultBendingWeightLeavesTheBasinOfAFlippedBimMap) {
   EXPECT_LT(i1["geodesic_error_mean"].get<double>(), 0.5 * i0["geodesic_error_mean"].get<double>());
   EXPECT_LT(i1["area_distortion_mean_abs"].get<double>(), 0.1);
 }
+
+// --min-features fills a surface's AGD maxima up to N with evenly spread samples (Sec. 4's
+// features and Sec. 5's P_even); --feature-radius is the scale of the maxima. Out of range: exit 2.
+TEST(BimCli, MinFeaturesAndFeatureRadiusReachBim) {
+  TempDir t("bim_features_cli");
+  ASSERT_EQ(run("generate --shape pair --kind near-isometric --vertices 800 --seed 3 -o " + t.p("pair")), 0);
+  const std::string A = t.p("pair/A.obj"), B = t.p("pair/B.obj");
+  const std::string fast = " --method bim --samples 64 --candidates 200 --matching-search 0";
+  ASSERT_EQ(run("surface-map " + A + " " + B + " -o " + t.p("few") + fast + " --feature-radius 5"), 0);
+  ASSERT_EQ(run("surface-map " + A + " " + B + " -o " + t.p("many") + fast + " --feature-radius 5 --min-features 7"), 0);
+  const nlohmann::json few = read_json(t.dir / "few" / "report.json"), many = read_json(t.dir / "many" / "report.json");
+  // A radius larger than the unit-area surface leaves one maximum; the default fill gives 3.
+  EXPECT_EQ(few["bim"]["features_A"].size(), 3u);
+  EXPECT_EQ(many["bim"]["features_A"].size(), 7u);
+  EXPECT_EQ(many["bim"]["features_B"].size(), 7u);
+  EXPECT_EQ(run("surface-map " + A + " " + B + " -o " + t.p("bad") + fast + " --min-features 2"), 2);
+  EXPECT_EQ(run("surface-map " + A + " " + B + " -o " + t.p("bad") + fast + " --feature-radius 0"), 2);
+  EXPECT_FALSE(fs::exists(t.dir / "bad"));
+}
