@@ -28,7 +28,7 @@ std::pair<BarycentricMap, BarycentricMap> surface_map_for_volumes(const TriMesh&
   BIMOptions bo;
   bo.symmetric = true;
   // As surface-map: two directions that agree (docs/methods.md, "Animals and the choice of
-  // direction"; measured on the volume bench in "The automatic start's two directions").
+  // direction"; measured on the volume bench's tet meshes: "The automatic start's two directions").
   bo.reverse_candidates = reverse_candidates;
   std::pair<BarycentricMap, BarycentricMap> maps;
   const bool landmarks = !landmarks_A.empty();
