@@ -145,9 +145,7 @@ Command register_evaluate_surface(CLI::App& evaluate, GlobalOptions& g) {
       j["reversibility_definition"] = "|P Q X - X| in the lumped L2 norm of A (unit area)";
       // The same round trip per vertex, as a share of A's bounding-box diagonal: a
       // scale-free figure for maps without ground truth (issue 20's camel target).
-      const Eigen::MatrixXd PQX = map_positions(map, map_positions(ba, A.V, A.F), B.F);
-      const double diag = (A.V.colwise().maxCoeff() - A.V.colwise().minCoeff()).norm();
-      const Eigen::VectorXd d = (PQX - A.V).rowwise().norm() / diag;
+      const Eigen::VectorXd d = round_trip_bbox(A, B, map, ba);
       j["reversibility_bbox"] = {{"definition", "per vertex of A: |P Q x - x| / bounding-box diagonal of A"},
                                  {"mean", d.mean()},
                                  {"max", d.maxCoeff()}};

@@ -220,4 +220,13 @@ double reversibility_error(const TriMesh& S, const TriMesh& T, const Barycentric
   return std::sqrt(s);
 }
 
+Eigen::VectorXd round_trip_bbox(const TriMesh& S, const TriMesh& T, const BarycentricMap& P,
+                                const BarycentricMap& Q) {
+  check_map(S, T, P, "round_trip_bbox: map P");
+  check_map(T, S, Q, "round_trip_bbox: map Q");
+  const Eigen::MatrixXd PQX = map_positions(P, map_positions(Q, S.V, S.F), T.F);
+  const double diag = (S.V.colwise().maxCoeff() - S.V.colwise().minCoeff()).norm();
+  return (PQX - S.V).rowwise().norm() / (diag > 0 ? diag : 1.0);
+}
+
 }  // namespace shapemap

@@ -104,3 +104,60 @@ TEST(VolumeMapPipeline, AutoInitSurfaceMapsAreTheSurfaceMapCommands) {
   EXPECT_EQ(dBA.elem, dflt.BA.elem);
   EXPECT_EQ(dBA.bary, dflt.BA.bary);
 }
+
+namespace {
+// Each vertex of s on itself (a face containing it, that corner's coordinate 1), or, with
+// `antipodal`, on the vertex nearest to its mirror image -x.
+BarycentricMap vertex_map(const TriMesh& s, bool antipodal) {
+  BarycentricMap m;
+  m.elem.resize(s.num_vertices());
+  m.bary = Eigen::MatrixXd::Zero(s.num_vertices(), 3);
+  std::vector<std::pair<int, int>> corner(s.num_vertices());
+  for (int f = 0; f < s.num_faces(); ++f)
+    for (int j = 0; j < 3; ++j) corner[s.F(f, j)] = {f, j};
+  for (int v = 0; v < s.num_vertices(); ++v) {
+    int u = v;
+    if (antipodal) (s.V.rowwise() + s.V.row(v)).rowwise().squaredNorm().minCoeff(&u);
+    m.elem(v) = corner[u].first;
+    m.bary(v, corner[u].second) = 1;
+  }
+  return m;
+}
+}  // namespace
+
+// The start's round trip (report.json init_round_trip, and a note above 1% of the diagonal):
+// round_trip_bbox against brute force, and through the pipeline with agreeing and disagreeing
+// surface maps on a sphere.
+TEST(VolumeMapPipeline, DisagreeingSurfaceMapsGetANote) {
+  const TriMesh s = make_sphere(400);
+  const BarycentricMap id = vertex_map(s, false), anti = vertex_map(s, true);
+  const double diag = (s.V.colwise().maxCoeff() - s.V.colwise().minCoeff()).norm();
+  const Eigen::VectorXd zero = round_trip_bbox(s, s, id, id), far = round_trip_bbox(s, s, id, anti);
+  EXPECT_LT(zero.maxCoeff(), 1e-12);
+  for (int v = 0; v < s.num_vertices(); ++v) {
+    int u;
+    (s.V.rowwise() + s.V.row(v)).rowwise().squaredNorm().minCoeff(&u);
+    EXPECT_NEAR(far(v), (s.V.row(u) - s.V.row(v)).norm() / diag, 1e-12);
+  }
+  VolumeInput a = volume_input_from_surface(s, "a", 800, 1, false), b = a;
+  VolumeMapRequest req;
+  req.init = "surface-map";
+  req.surface_map_mesh_A = req.surface_map_mesh_B = s;
+  req.opt.max_iterations = 1;
+  req.opt.land_on_target = false;
+  auto noted = [](const VolumeMapRun& r) {
+    for (const std::string& n : r.notes)
+      if (n.find("initial surface maps disagree") != std::string::npos) return true;
+    return false;
+  };
+  req.surface_map_AB = req.surface_map_BA = id;
+  const VolumeMapRun same = run_volume_map(a, b, req);
+  EXPECT_LT(same.init_round_trip_AB, 1e-12);
+  EXPECT_FALSE(noted(same));
+  EXPECT_LT(same.report["init_round_trip"]["BA"].get<double>(), 1e-12);
+  req.surface_map_BA = anti;
+  const VolumeMapRun swapped = run_volume_map(a, b, req);
+  EXPECT_NEAR(swapped.init_round_trip_AB, far.mean(), 1e-12);
+  EXPECT_GT(swapped.init_round_trip_BA, 0.5);  // about 2 r / diag = 1 / sqrt(3)
+  EXPECT_TRUE(noted(swapped));
+}

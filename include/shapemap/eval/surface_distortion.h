@@ -91,4 +91,9 @@ double mean_curvature_error(const TriMesh& S, const TriMesh& T, const Barycentri
 double reversibility_error(const TriMesh& S, const TriMesh& T, const BarycentricMap& P,
                            const BarycentricMap& Q, bool normalize_area = true);
 
+// The same round trip per vertex of S, |P Q x - x| over S's bounding-box diagonal: a
+// scale-free figure for maps without ground truth (issue 20's camel target).
+Eigen::VectorXd round_trip_bbox(const TriMesh& S, const TriMesh& T, const BarycentricMap& P,
+                                const BarycentricMap& Q);
+
 }  // namespace shapemap

@@ -64,6 +64,9 @@ struct VolumeMapRun {
   VolumeMapMetrics f12, f21;          // of the maps as the map files hold them (snapped into the target)
   double snap12 = 0, snap21 = 0;      // largest move of an image by that snapping
   std::string init_detail;
+  // init auto / surface-map: the surface maps' mean round trip (A -> B -> A, B -> A -> B) over
+  // the surface's bounding-box diagonal; -1 for the other inits.
+  double init_round_trip_AB = -1, init_round_trip_BA = -1;
   std::vector<std::string> notes;
   // init ball: the ball maps of the chord-split copies (for quality warnings)
   bool used_ball = false;
