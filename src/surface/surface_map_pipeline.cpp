@@ -140,8 +140,8 @@ bool prepared_fits(const PreparedSurface* p, const BIMOptions& o) {
 
 // BIM on the request's prepared surfaces when they fit the options, else (or when the prepared
 // surfaces give no candidate map) prepared here, with blended_intrinsic_maps' seed retries.
-BIMResult bim_for_request(const TriMesh& RA, const TriMesh& RB, const SurfaceMapRequest& req, const BIMOptions& o,
-                          bool use_prepared, const ProgressCallback& progress, std::vector<std::string>& notes) {
+BIMResult bim_with_retries(const TriMesh& RA, const TriMesh& RB, const SurfaceMapRequest& req, const BIMOptions& o,
+                           bool use_prepared, const ProgressCallback& progress, std::vector<std::string>& notes) {
   if (use_prepared && prepared_fits(req.prepared_A.get(), o) && prepared_fits(req.prepared_B.get(), o)) {
     try {
       BIMResult r = bim_prepared(*req.prepared_A->bim, *req.prepared_B->bim, o, progress);
@@ -154,6 +154,21 @@ BIMResult bim_for_request(const TriMesh& RA, const TriMesh& RB, const SurfaceMap
   if (r.seed_retries > 0)
     notes.push_back("BIM: no candidate map with seed " + std::to_string(o.seed) + " (feature points coincide on the "
                     "flattened sphere); seed " + std::to_string(r.seed) + " used");
+  return r;
+}
+
+BIMResult bim_for_request(const TriMesh& RA, const TriMesh& RB, const SurfaceMapRequest& req, const BIMOptions& o,
+                          bool use_prepared, const ProgressCallback& progress, std::vector<std::string>& notes) {
+  BIMResult r = bim_with_retries(RA, RB, req, o, use_prepared, progress, notes);
+  // Sec. 6.2 blends maps that share two correspondences without a conflict; with 3 features on
+  // a surface no two maps do (each uses all three), so the map is one Moebius map. The paper's
+  // glasses fail this way (Fig. 14, "long, thin parts"); so do SHREC'07's glasses 41 -> 44 here.
+  if (o.landmarks_A.empty() && r.AB.num_consistent_pairs == 0)
+    notes.push_back("surface-map: note: BIM found " + std::to_string(r.features_A.size()) + " feature points on " + o.name_A + ", " +
+                    std::to_string(r.features_B.size()) + " on " + o.name_B +
+                    ": no two candidate maps share two correspondences without a conflict, so the map is a "
+                    "single Moebius map, not a blend (Sec. 6.2); shapes with long thin parts map poorly so "
+                    "(--landmarks may help)");
   return r;
 }
 
