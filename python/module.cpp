@@ -184,6 +184,7 @@ py::dict volume_map(const RowMatrixXd& VA, const RowMatrixXi& EA, const RowMatri
   VolumeMapRequest req;
   req.init = o["init"].cast<std::string>();
   req.auto_surface = o["auto_surface_map"].cast<std::string>();
+  req.auto_reverse_candidates = o["reverse_candidates"].cast<bool>();
   req.boundary_stage = o["boundary_fixed_stage"].cast<std::string>();
   req.interior_init = o["interior_init"].cast<std::string>();
   req.strict = o["strict"].cast<bool>();

@@ -209,7 +209,7 @@ def surface_map(VA, FA, VB, FB, method="bim", landmarks=None, init=None, init_re
 
 
 def volume_map(VA, TA, VB, TB, init="auto", landmarks=None, surface_map=None, tets=0, auto_surface_map="elastic",
-               alpha=None, gamma=None, beta_start=None, beta_end=None, max_iterations=None, solver="newton",
+               reverse_candidates=True, alpha=None, gamma=None, beta_start=None, beta_end=None, max_iterations=None, solver="newton",
                boundary_fixed_stage="auto", interior_init="closest", land_on_target=True, seed=1, threads=0, strict=False, names=("A", "B"),
                progress=None):
     """Symmetric volume map (`shapemap volume-map`) between two tet meshes (T: m x 4), or two
@@ -218,12 +218,15 @@ def volume_map(VA, TA, VB, TB, init="auto", landmarks=None, surface_map=None, te
     init: "auto" (surface map by BIM + elastic), "landmarks" ((LA, LB) vertex lists; of the
     surfaces for surface inputs), "ball" (registration through ball maps) or "surface-map"
     (surface_map=(map_AB, map_BA) between the boundary or input surfaces). interior_init:
-    "closest" (Sec. 5.1) or "harmonic" (the boundary's images extended harmonically). Returns a Map
+    "closest" (Sec. 5.1) or "harmonic" (the boundary's images extended harmonically).
+    reverse_candidates (init "auto"): the less confident BIM direction takes the inverse of the
+    other's blend, as surface_map does (False: each direction's own blend). Returns a Map
     A -> B with .reverse; .mesh_A / .mesh_B are the tet meshes the maps index, .X the
     optimized positions.
     """
     d = _volume_defaults()
-    opts = dict(init=init, auto_surface_map=auto_surface_map, boundary_fixed_stage=boundary_fixed_stage,
+    opts = dict(init=init, auto_surface_map=auto_surface_map, reverse_candidates=bool(reverse_candidates),
+                boundary_fixed_stage=boundary_fixed_stage,
                 interior_init=interior_init,
                 strict=bool(strict), tets=int(tets), seed=int(seed), threads=int(threads), solver=solver,
                 names=(str(names[0]), str(names[1])),

@@ -125,6 +125,11 @@ def test_volume_map_and_evaluate(surfaces):
     assert ev["num_tets"] == len(TA) and "n_inv" in ev
     assert m.report["metrics"]["AB"]["n_inv"] == m.report["metrics"]["AB"]["n_inv"]
     assert m.report["inputs"]["A_tetrahedralized"]
+    # The automatic start's BIM directions (volume-map --no-reverse-candidates).
+    assert "(reverse candidates)" in m.report["parameters"]["init"]
+    own = shapemap.volume_map(VA, FA, VB, FB, tets=1000, auto_surface_map="bim", max_iterations=1,
+                              reverse_candidates=False)
+    assert "BIM" in own.report["parameters"]["init"] and "reverse" not in own.report["parameters"]["init"]
 
 
 def test_ball_and_register(pair):
