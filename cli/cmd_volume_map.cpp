@@ -213,8 +213,9 @@ void add_initialization_options(CLI::App* app, VolumeMapArgs& a) {
       ->check(CLI::IsMember({"bim", "elastic"}))
       ->capture_default_str();
   app->add_flag("--reverse-candidates,!--no-reverse-candidates", a.auto_reverse_candidates,
-                "--init auto: the less confident direction of BIM takes the inverse of the other's "
-                "blend, as surface-map does (default; --no-reverse-candidates keeps each direction's own blend)");
+                "--init auto without landmarks: the less confident direction of BIM takes the inverse of the "
+                "other's blend, as surface-map does (default; --no-reverse-candidates keeps each direction's "
+                "own blend, as --init auto --landmarks always does)");
   app->add_option("--tets", a.tets, "Target tet count when tetrahedralizing surfaces (0: default)")
       ->check(in_range(0, kMaxTets));
 }

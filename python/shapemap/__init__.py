@@ -219,8 +219,8 @@ def volume_map(VA, TA, VB, TB, init="auto", landmarks=None, surface_map=None, te
     surfaces for surface inputs), "ball" (registration through ball maps) or "surface-map"
     (surface_map=(map_AB, map_BA) between the boundary or input surfaces). interior_init:
     "closest" (Sec. 5.1) or "harmonic" (the boundary's images extended harmonically).
-    reverse_candidates (init "auto"): the less confident BIM direction takes the inverse of the
-    other's blend, as surface_map does (False: each direction's own blend). Returns a Map
+    reverse_candidates (init "auto" without landmarks): the less confident BIM direction takes the
+    inverse of the other's blend, as surface_map does (False: each direction's own blend). Returns a Map
     A -> B with .reverse; .mesh_A / .mesh_B are the tet meshes the maps index, .X the
     optimized positions.
     """

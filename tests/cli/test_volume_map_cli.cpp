@@ -135,6 +135,7 @@ TEST(VolumeMapCli, AutoInitUsesTheLandmarks) {
   const std::string init = r["parameters"]["init"];
   EXPECT_NE(init.find("BIM over landmark triplets"), std::string::npos) << init;
   EXPECT_NE(init.find("8 landmarks as anchors"), std::string::npos) << init;
+  EXPECT_EQ(init.find("reverse candidates"), std::string::npos) << init;  // each direction's own blend
   // Too few landmarks for BIM's triplets: exit 2.
   std::ofstream(f.p("L2a.txt")) << "0\n6\n";
   std::ofstream(f.p("L2b.txt")) << "0\n5\n";

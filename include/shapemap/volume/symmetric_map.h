@@ -232,10 +232,10 @@ BarycentricMap surface_initial_map(const TetMesh& A, const TetMesh& B, const Tri
 // receives a short description of the method. elastic: the elastic settings (null: the
 // surface-map command's defaults). landmarks_A/B (vertices of SA / SB, k >= 3 pairs, or
 // none): the initial maps are BIM over landmark triplets and the landmarks anchor the
-// elastic refinement, as `surface-map --method elastic --landmarks` does. reverse_candidates:
-// BIMOptions::reverse_candidates (surface-map's default: the less confident direction takes
-// the inverse of the other's blend). (elastic_refinement, elastic, landmarks, reverse_candidates:
-// added, backward compatible.)
+// elastic refinement, as `surface-map --method elastic --landmarks` does. reverse_candidates
+// (without landmarks only): BIMOptions::reverse_candidates (surface-map's default: the less
+// confident direction takes the inverse of the other's blend). (elastic_refinement, elastic,
+// landmarks, reverse_candidates: added, backward compatible.)
 struct ElasticSettings;
 std::pair<BarycentricMap, BarycentricMap> surface_map_for_volumes(const TriMesh& SA,
                                                                   const TriMesh& SB,

@@ -45,7 +45,7 @@ std::vector<int> carry_landmarks_to_volume(const VolumeInput& in, const std::vec
 struct VolumeMapRequest {
   std::string init = "auto";          // auto | landmarks | ball | surface-map (Sec. 5.1)
   std::string auto_surface = "elastic";  // init auto: bim, or bim + elastic refinement
-  bool auto_reverse_candidates = true;    // init auto: BIMOptions::reverse_candidates
+  bool auto_reverse_candidates = true;    // init auto without landmarks: BIMOptions::reverse_candidates
   std::string boundary_stage = "auto";   // Algorithm 1 stage 2: on | off | auto (off from landmarks)
   std::string interior_init = "closest";  // X's interior at the start: closest (Sec. 5.1) | harmonic
   bool strict = false;                // refuse defective boundaries instead of repairing them
