@@ -2,8 +2,9 @@
 """Symmetric volume maps on real shapes (issue 19), run through the command-line tool.
 
 Pairs (the real ones read ../shared/data, or $SHAPEMAP_DATA; skipped when it is absent):
-  airplane -> bird   shrec07-61 -> 248, the data's 3 landmarks       (--init landmarks)
-  cat -> lion        tosca-cat-00 -> tosca-lion-00, 20 landmarks     (--init landmarks)
+  airplane -> bird   shrec07-61 -> 248, the data's 3 landmarks       (--landmarks alone: the
+                     tool's default, --init auto guided by them when fewer than 4)
+  cat -> lion        tosca-cat-00 -> tosca-lion-00, 20 landmarks     (--landmarks: --init landmarks)
   airplane-bird-auto, cat-lion-auto: the same shapes, mapped fully automatically (the landmarks
                      unused): BIM + elastic surface map, computed once (--init surface-map)
   glasses 41 -> 44   BIM + elastic surface map, computed once         (--init surface-map)
@@ -133,7 +134,9 @@ def prepare_real(r, data, cache, name, a, b, landmarks):
         la, lb = os.path.join(cache, a + ".xyz"), os.path.join(cache, b + ".xyz")
         landmark_xyz(sa, os.path.join(data, a + ".landmarks"), la)
         landmark_xyz(sb, os.path.join(data, b + ".landmarks"), lb)
-        return ta, tb, ["--init", "landmarks", "--landmarks", la, lb], None
+        # The tool's default with landmarks (--init landmarks, or auto guided by them when there are
+        # fewer than 4: the landmark start would be flat); the old tool's default is --init landmarks.
+        return ta, tb, ["--landmarks", la, lb], None
     smap = os.path.join(cache, name + "-surface-map")
     if not r.need(os.path.join(smap, "map_BA.txt"),
                   ["surface-map", sa, sb, "-o", smap, "--method", "elastic", "--quiet"],

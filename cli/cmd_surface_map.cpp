@@ -148,6 +148,15 @@ CLI::App* add_surface_map_command(CLI::App& parent, SurfaceMapArgs& a) {
                 "BIM with --symmetric (and elastic's BIM init): the direction with the less confident "
                 "blend takes the inverse of the other direction's blend (the default; "
                 "--no-reverse-candidates keeps each direction's own blend)");
+  app->add_flag("--landmark-features,!--no-landmark-features", a.bim.landmark_feature_points,
+                "BIM with --landmarks: the AGD maxima away from the landmarks are feature points too, "
+                "and candidates from them are kept when they carry every landmark near its partner "
+                "(the default; docs/methods.md, \"Landmarks among the feature points\"); "
+                "--no-landmark-features: the landmark triples alone");
+  app->add_option("--landmark-agreement", a.bim.landmark_agreement,
+                  "BIM with --landmarks: a candidate that is not a landmark triple must carry every landmark "
+                  "within this geodesic distance of its partner (unit-area target; default 0.1)")
+      ->check(CLI::PositiveNumber);
   app->add_option("--features", a.bim.max_features, "BIM: at most this many AGD feature points per surface")
       ->check(CLI::Range(3, 30));
   app->add_option("--min-features", a.bim.min_features,

@@ -74,6 +74,14 @@ std::vector<int> volume_landmarks(const std::string& file, const VolumeInput& in
   return read_landmarks(file, in.mesh.V, cand);
 }
 
+// Whether landmarks would give the landmark initialization a flat start: Sec. 5.1 sends every
+// vertex to its nearest landmark's partner, so with fewer than 4 distinct pairs the initial X
+// lies in a plane and every tet is degenerate (airplane -> bird's 3 landmarks: docs/methods.md).
+bool flat_landmark_start(std::vector<int> LA, std::vector<int> LB, const std::vector<std::string>& files) {
+  tidy_landmark_pairs(LA, LB, files[0], files[1]);
+  return LA.size() < 4;
+}
+
 // The initialization (--init, or its default) and the checks of the options that go with it.
 std::string choose_init(const VolumeMapArgs& a) {
   std::string init = a.init;
@@ -132,6 +140,12 @@ int run_volume_map_command(VolumeMapArgs& a, const GlobalOptions& g) {
   if (req.init == "landmarks" || (req.init == "auto" && !a.landmarks.empty())) {
     req.landmarks_A = volume_landmarks(a.landmarks[0], inA);
     req.landmarks_B = volume_landmarks(a.landmarks[1], inB);
+    if (a.init.empty() && flat_landmark_start(req.landmarks_A, req.landmarks_B, a.landmarks)) {
+      req.init = "auto";
+      info(g, "volume-map: note: fewer than 4 distinct landmark pairs: the landmark initialization (Sec. 5.1) "
+              "would put every vertex on one of them, a flat start; they guide --init auto instead "
+              "(--init landmarks forces it; docs/methods.md, \"Landmarks among the feature points\")");
+    }
   }
   if (req.init == "surface-map" && a.surface_map_meshes.size() == 2) {
     req.surface_map_mesh_A = read_surface(a.surface_map_meshes[0]);
@@ -193,11 +207,12 @@ namespace {
 void add_initialization_options(CLI::App* app, VolumeMapArgs& a) {
   app->add_option("--init", a.init, "Initialization: auto (surface map by BIM + elastic), "
                                        "ball (registration through ball maps, both ways), "
-                                       "landmarks, surface-map (default: landmarks if given, "
-                                       "else surface-map if given, else auto)")
+                                       "landmarks, surface-map (default: landmarks if given, auto guided by "
+                                       "them when fewer than 4 distinct pairs, else surface-map "
+                                       "if given, else auto)")
       ->check(CLI::IsMember({"auto", "ball", "landmarks", "surface-map"}));
   app->add_option("--landmarks", a.landmarks, "Landmark files LA LB (vertex index or x y z per line): --init landmarks starts from them; with --init auto they "
-                  "guide the surface map (BIM over their triplets, anchors of the elastic refinement)")
+                  "guide the surface map (BIM's candidates, anchors of the elastic refinement)")
       ->expected(2);
   app->add_option("--surface-map", a.surface_map,
                     "Surface map files MAP_AB MAP_BA between the boundary surfaces (or the input surfaces)")

@@ -16,6 +16,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <numeric>
 #include <queue>
 #include <unordered_map>
@@ -173,6 +174,20 @@ void bim_sample_features(const TriMesh& mesh, const BIMOptions& opt, const std::
   agd = even_dist.rowwise().mean();
   if (!landmarks.empty()) {
     features = landmarks;
+    if (bim_landmark_guided(opt, int(landmarks.size()))) {
+      // "Landmarks among the feature points": the AGD maxima away from every landmark join them.
+      Eigen::MatrixXd dl = geo.distances(landmarks);
+      std::vector<int> extra;
+      for (int v : agd_maxima(mesh, agd, opt.feature_radius, opt.max_features))
+        if (dl.row(v).minCoeff() > opt.feature_radius) extra.push_back(v);
+      features.insert(features.end(), extra.begin(), extra.end());
+      if (feature_dist) {
+        feature_dist->resize(n, features.size());
+        feature_dist->leftCols(dl.cols()) = dl;
+        if (!extra.empty()) feature_dist->rightCols(extra.size()) = geo.distances(extra);
+      }
+      return;
+    }
   } else {
     features = agd_maxima(mesh, agd, opt.feature_radius, opt.max_features);
     // Too few maxima (nearly symmetric blobs): add spread samples (FPS order).
@@ -319,13 +334,102 @@ void most_confident(const BIMSurface& src, const BIMSurface& dst, int keep, std:
   for (int i : order) kept.push_back(cand[i]);
   cand = std::move(kept);
 }
+
+// Triples of "Landmarks among the feature points" that are not landmark triples: a triple
+// with k landmarks (k = 0, 1, 2) and 3 - k AGD maxima, matched to the k partners and to an
+// ordered choice of 3 - k distinct target maxima; m1, m2 the maxima on each side.
+long long mixed_triples(long long L, long long m1, long long m2) {
+  auto c = [](long long n, int r) { return r == 0 ? 1 : r == 1 ? n : r == 2 ? n * (n - 1) / 2 : choose3(n); };
+  auto p = [](long long n, int r) { return r == 0 ? 1 : r == 1 ? n : r == 2 ? n * (n - 1) : n * (n - 1) * (n - 2); };
+  long long sum = 0;
+  for (int k = 0; k < 3; ++k) sum += c(L, k) * c(m1, 3 - k) * std::max(0LL, p(m2, 3 - k));
+  return sum;
+}
+
+// The largest geodesic distance (unit-area target) from a landmark's image under m to its
+// partner; features 0..L-1 are the landmarks on both surfaces. Stops above `limit`.
+double landmark_disagreement(const BIMSurface& src, const BIMSurface& dst, const Mobius& m, int L, double limit) {
+  double worst = 0;
+  for (int k = 0; k < L && worst <= limit; ++k) {
+    auto loc = dst.locator->locate(sphere_from_plane(m(src.hom[src.features[k]])));
+    double d = 0;
+    for (int j = 0; j < 3; ++j) d += loc.bary(j) * dst.feature_dist(dst.mesh.F(loc.face, j), k);
+    worst = std::max(worst, d);
+  }
+  return worst;
+}
+
+// "Landmarks among the feature points" (BIMOptions::landmark_feature_points): every source
+// triple, its landmarks sent to their partners and its AGD maxima to every ordered choice of
+// distinct target maxima; the landmark triples kept, the others when they agree with every
+// landmark; the most confident max_candidates of them.
+std::vector<BIMCandidate> guided_candidates(const BIMSurface& src, const BIMSurface& dst, const BIMOptions& opt,
+                                            long long* total) {
+  const int L = int(opt.landmarks_A.size()), n1 = int(src.features.size()), n2 = int(dst.features.size());
+  std::vector<BIMCandidate> all;
+  for (long long r = 0; r < choose3(n1); ++r) {
+    BIMCandidate cd;
+    cd.source = unrank_triple(r, n1);
+    std::vector<int> open;  // slots holding a source AGD maximum
+    for (int k = 0; k < 3; ++k) {
+      if (cd.source[k] < L) cd.target[k] = cd.source[k];
+      else open.push_back(k);
+    }
+    // Ordered distinct target maxima for the open slots (nested loops, at most three deep).
+    std::function<void(size_t)> fill = [&](size_t i) {
+      if (i == open.size()) return all.push_back(cd);
+      for (int t = L; t < n2; ++t) {
+        bool used = false;
+        for (size_t j = 0; j < i; ++j) used |= cd.target[open[j]] == t;
+        if (used) continue;
+        cd.target[open[i]] = t;
+        fill(i + 1);
+      }
+    };
+    fill(0);
+  }
+  if (total) *total = (long long)all.size();
+  std::vector<char> keep(all.size(), 0);
+#pragma omp parallel for schedule(dynamic, 256)
+  for (long long i = 0; i < (long long)all.size(); ++i) {
+    BIMCandidate& cd = all[i];
+    Homogeneous z[3], w[3];
+    for (int k = 0; k < 3; ++k) {
+      z[k] = src.hom[src.features[cd.source[k]]];
+      w[k] = dst.hom[dst.features[cd.target[k]]];
+    }
+    try {
+      cd.mobius = Mobius::from_three_points(z, w);
+    } catch (const Error&) {
+      continue;  // feature points numerically coincident on the sphere: no map
+    }
+    const bool landmark_triple = cd.source[0] < L && cd.source[1] < L && cd.source[2] < L;
+    keep[i] = landmark_triple ||
+              landmark_disagreement(src, dst, cd.mobius, L, opt.landmark_agreement) <= opt.landmark_agreement;
+  }
+  std::vector<BIMCandidate> valid;
+  for (size_t i = 0; i < all.size(); ++i)
+    if (keep[i]) valid.push_back(all[i]);
+  if (opt.max_candidates > 0 && int(valid.size()) > opt.max_candidates)
+    most_confident(src, dst, opt.max_candidates, valid);
+  return valid;
+}
 }  // namespace
+
+bool bim_landmark_guided(const BIMOptions& opt, int num_landmarks) {
+  return num_landmarks >= 3 && opt.landmark_feature_points &&
+         mixed_triples(num_landmarks, opt.max_features, opt.max_features) <= opt.landmark_mixed_max;
+}
 
 std::vector<BIMCandidate> bim_candidates(const BIMSurface& src, const BIMSurface& dst,
                                          const BIMOptions& opt, long long* total) {
-  const int n1 = int(src.features.size()), n2 = int(dst.features.size());
   const bool fixed = !opt.landmarks_A.empty();
-  if (fixed && n1 != n2) throw InputError("landmarks: the two lists have different lengths");
+  if (fixed && bim_landmark_guided(opt, int(opt.landmarks_A.size()))) return guided_candidates(src, dst, opt, total);
+  // With landmarks they are the first features (any after them are unused here).
+  const int n1 = int(fixed ? opt.landmarks_A.size() : src.features.size());
+  const int n2 = int(fixed ? opt.landmarks_B.size() : dst.features.size());
+  if (fixed && (n1 != n2 || int(src.features.size()) < n1 || int(dst.features.size()) < n2))
+    throw InputError("landmarks: the two lists have different lengths");
   // Candidate i in the order of the nested loops: with landmarks, the i-th triple of
   // corresponding landmarks; else (i / 6) = rank of the source triple * C(n2, 3) + rank of the
   // target triple, and i % 6 the permutation of the target triple.

@@ -1,4 +1,5 @@
-// Landmark-driven initial maps for elastic correspondence: BIM over landmark triplets.
+// Landmark-driven initial maps for elastic correspondence: BIM with the landmarks
+// (BIMOptions::landmark_feature_points: guided by them, or over their triplets alone).
 #include "shapemap/error.h"
 #include "shapemap/surface/bim.h"
 #include "shapemap/surface/elastic.h"

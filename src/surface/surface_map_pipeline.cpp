@@ -225,7 +225,8 @@ std::string elastic_initial_maps(const TriMesh& A, const TriMesh& B, const Surfa
     if (req.init_AB.size() > 0) throw InputError("elastic: give landmarks or an initial map, not both");
     BIMOptions bo = req.bim;
     landmark_initial_maps(RA, RB, run.landmarks_A, run.landmarks_B, initAB, initBA, &bo);
-    return "landmarks (BIM over landmark triplets)";
+    return bim_landmark_guided(bo, int(run.landmarks_A.size())) ? "landmarks (BIM guided by landmarks)"
+                                                                 : "landmarks (BIM over landmark triplets)";
   }
   if (req.init_AB.size() == 0) {
     BIMOptions bo = req.bim;

@@ -30,13 +30,15 @@ std::pair<BarycentricMap, BarycentricMap> surface_map_for_volumes(const TriMesh&
   std::pair<BarycentricMap, BarycentricMap> maps;
   const bool landmarks = !landmarks_A.empty();
   // Without landmarks as surface-map: two directions that agree (docs/methods.md, "Animals and
-  // the choice of direction"). With landmarks each direction's own blend over their triplets:
+  // the choice of direction"). With landmarks each direction's own blend (BIM guided by them):
   // the inverse cost both landmark pairs of the volume bench d-hat and E_R ("The automatic
   // start's two directions").
   bo.reverse_candidates = reverse_candidates && !landmarks;
-  const std::string bim_name = std::string(landmarks ? "BIM over landmark triplets" : "BIM") +
+  const std::string bim_name = std::string(!landmarks ? "BIM"
+                                            : bim_landmark_guided(bo, int(landmarks_A.size())) ? "BIM guided by landmarks"
+                                                                                                : "BIM over landmark triplets") +
                                (bo.reverse_candidates ? " (reverse candidates)" : "");
-  if (landmarks) {  // the user's correspondences: BIM over their triplets, as surface-map does
+  if (landmarks) {  // the user's correspondences guide BIM, as in surface-map
     landmark_initial_maps(SA, SB, landmarks_A, landmarks_B, maps.first, maps.second, &bo);
     if (used) *used = bim_name;
   } else {

@@ -117,7 +117,7 @@ TEST(VolumeMapCli, BallInitRecoversTheBend) {
 }
 
 // --init auto with --landmarks: the landmarks guide the surface map between the boundaries
-// (BIM over their triplets, anchors of the elastic refinement); the bent box's truth as
+// (BIM guided by them, anchors of the elastic refinement); the bent box's truth as
 // above. Measured mean error 0.0178 (the landmark init 0.0175, the ball 0.0176). Before,
 // --init auto refused --landmarks (exit 2).
 TEST(VolumeMapCli, AutoInitUsesTheLandmarks) {
@@ -133,7 +133,7 @@ TEST(VolumeMapCli, AutoInitUsesTheLandmarks) {
   std::ifstream rep(f.p("auto/report.json"));
   const nlohmann::json r = nlohmann::json::parse(rep);
   const std::string init = r["parameters"]["init"];
-  EXPECT_NE(init.find("BIM over landmark triplets"), std::string::npos) << init;
+  EXPECT_NE(init.find("BIM guided by landmarks"), std::string::npos) << init;
   EXPECT_NE(init.find("8 landmarks as anchors"), std::string::npos) << init;
   EXPECT_EQ(init.find("reverse candidates"), std::string::npos) << init;  // each direction's own blend
   // Too few landmarks for BIM's triplets: exit 2.
@@ -143,6 +143,27 @@ TEST(VolumeMapCli, AutoInitUsesTheLandmarks) {
                 f.p("L2a.txt") + " " + f.p("L2b.txt")),
             2);
   EXPECT_FALSE(fs::exists(f.dir / "auto2"));
+  // Three landmarks and no --init: the landmark initialization would be flat (every vertex on one of 3
+  // points), so they guide --init auto instead, with a note; --init landmarks still forces it.
+  {
+    std::ifstream la(f.p("LA.txt")), lb(f.p("LB.txt"));
+    std::ofstream a3(f.p("L3a.txt")), b3(f.p("L3b.txt"));
+    std::string line;
+    for (int k = 0; k < 3 && std::getline(la, line); ++k) a3 << line << "\n";
+    for (int k = 0; k < 3 && std::getline(lb, line); ++k) b3 << line << "\n";
+  }
+  const std::string three = " --landmarks " + f.p("L3a.txt") + " " + f.p("L3b.txt") + " --max-iterations 3";
+  const std::string cmd = std::string(SHAPEMAP_BINARY) + " --threads 1 volume-map " + f.p("A.mesh") + " " +
+                          f.p("B.vtk") + " -o " + f.p("auto3") + three + " > /dev/null 2> " + f.p("auto3.err");
+  ASSERT_EQ(std::system(cmd.c_str()), 0);
+  const std::string note = shapemap::testing::slurp(f.p("auto3.err"));
+  EXPECT_NE(note.find("fewer than 4 distinct landmark pairs"), std::string::npos) << note;
+  const nlohmann::json r3 = nlohmann::json::parse(shapemap::testing::slurp(f.p("auto3/report.json")));
+  const std::string init3 = r3["parameters"]["init"];
+  EXPECT_EQ(init3.rfind("auto (BIM guided by landmarks", 0), 0u) << init3;
+  ASSERT_EQ(run("volume-map " + f.p("A.mesh") + " " + f.p("B.vtk") + " -o " + f.p("lm3") + " --init landmarks" + three), 0);
+  const nlohmann::json l3 = nlohmann::json::parse(shapemap::testing::slurp(f.p("lm3/report.json")));
+  EXPECT_EQ(l3["parameters"]["init"], "landmarks");
 }
 
 // Stage 5 on a generated pair whose vertex-only post-repair rounds leave inverted tets

@@ -269,3 +269,18 @@ def test_elastic_landmarks_are_the_anchors(surfaces, pair):
     af = f.report["elastic"]["anchors"]
     assert af["source"] == "features" and af["count"] == len(af["A"]) == len(af["distance"])
     assert all(d <= 0.005 for d in af["distance"])
+
+
+def test_landmarks_guide_bim_or_replace_its_features(surfaces, pair):
+    """landmark_features (`--no-landmark-features` when False): with 3 landmarks BIM keeps its own
+    AGD maxima as features and the candidates that agree with the landmarks; without, the one
+    landmark triple is the only candidate (docs/methods.md, "Landmarks among the feature points")."""
+    (VA, FA), (VB, FB) = surfaces
+    truth = shapemap.read_map(pair / "truth_AB.txt", VB, FB).points()
+    LA = np.arange(0, len(VA), len(VA) // 3)[:3]
+    LB = ((truth[LA][:, None, :] - VB[None, :, :]) ** 2).sum(axis=2).argmin(axis=1)
+    g = shapemap.surface_map(VA, FA, VB, FB, landmarks=(LA, LB), **FAST_BIM)
+    t = shapemap.surface_map(VA, FA, VB, FB, landmarks=(LA, LB), landmark_features=False, **FAST_BIM)
+    assert t.report["bim"]["AB"]["num_candidates"] == 1 and len(t.report["bim"]["features_A"]) == 3
+    assert len(g.report["bim"]["features_A"]) > 3 and g.report["bim"]["features_A"][:3] == [int(i) for i in LA]
+    assert g.report["bim"]["AB"]["num_candidates"] >= 1

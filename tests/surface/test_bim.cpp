@@ -25,6 +25,7 @@ struct LandmarkCandidate {
 };
 LandmarkCandidate three_landmark_candidate(const TriMesh& A, const TriMesh& B) {
   BIMOptions o;
+  o.landmark_feature_points = false;  // the landmark triple alone (the paper's correspondences)
   std::vector<int> lm = farthest_point_sampling_graph(A.V, A.F, 3, 0);
   LandmarkCandidate r{bim_prepare(A, "A", o, lm), bim_prepare(B, "B", o, lm), {}};
   o.landmarks_A = o.landmarks_B = lm;
@@ -62,6 +63,7 @@ TEST(Bim, BlendOnRotatedSphere) {
   Eigen::Matrix3d R = test_rotation();
   B.V = A.V * R.transpose();
   BIMOptions o;
+  o.landmark_feature_points = false;  // the 20 landmark triples alone
   o.landmarks_A = o.landmarks_B = farthest_point_sampling_graph(A.V, A.F, 6, 0);
   o.symmetric = true;
   BIMResult r = blended_intrinsic_maps(A, B, o);
@@ -122,6 +124,7 @@ TEST(Bim, NoCandidateMapIsAnInputErrorAfterTheSeedRetries) {
   o.name_B = "b.off";
   o.landmarks_A = {5, 5, 5};
   o.landmarks_B = {7, 7, 7};
+  o.landmark_feature_points = false;  // AGD maxima would give maps
   try {
     blended_intrinsic_maps(A, B, o);
     FAIL() << "no exception";
@@ -190,6 +193,7 @@ TEST(Bim, ConfidenceMatchesTheOneRingAreaRatioOnAStretchedPair) {
 TEST(Bim, LandmarkTriplesAreSampledWithoutBuildingThemAll) {
   TriMesh A = make_sphere(1600);
   BIMOptions o;
+  o.landmark_feature_points = false;  // the landmark triples alone
   std::vector<int> lm = farthest_point_sampling_graph(A.V, A.F, 1500, 0);
   const BIMSurface s = bim_prepare(A, "A", o, lm);
   o.landmarks_A = o.landmarks_B = lm;
@@ -208,8 +212,9 @@ TEST(Bim, LandmarkTriplesAreSampledWithoutBuildingThemAll) {
   EXPECT_EQ(std::adjacent_find(seen.begin(), seen.end()), seen.end());  // distinct
 
   std::vector<int> few(lm.begin(), lm.begin() + 8);
-  const BIMSurface s8 = bim_prepare(A, "A", BIMOptions{}, few);
   BIMOptions o8;
+  o8.landmark_feature_points = false;
+  const BIMSurface s8 = bim_prepare(A, "A", o8, few);
   o8.landmarks_A = o8.landmarks_B = few;
   const std::vector<BIMCandidate> all = bim_candidates(s8, s8, o8, &total);
   EXPECT_EQ(total, 56);
@@ -272,6 +277,7 @@ TEST(Bim, ImpliedCorrespondencesExposeASwapTheTriplesDoNotShow) {
   TriMesh B = A;
   B.V = A.V * test_rotation().transpose();
   BIMOptions o;
+  o.landmark_feature_points = false;  // the six landmarks are the features
   const std::vector<int> lm = farthest_point_sampling_graph(A.V, A.F, 6, 0);
   const BIMSurface sa = bim_prepare(A, "A", o, lm), sb = bim_prepare(B, "B", o, lm);
   auto candidate = [&](std::array<int, 3> s, std::array<int, 3> t) {

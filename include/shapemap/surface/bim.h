@@ -89,6 +89,16 @@ struct BIMOptions {
   // Known correspondences (landmarks): if non-empty, feature points are these vertex
   // pairs and the candidates are all triplets of them (no permutations).
   std::vector<int> landmarks_A, landmarks_B;
+  // Our addition (docs/methods.md, "Landmarks among the feature points"): with landmarks, the
+  // AGD maxima farther than feature_radius from every landmark are feature points too, and
+  // the candidates are every triple of corresponding features in which a landmark is matched
+  // to its partner only; a candidate that is not a landmark triple must carry every landmark
+  // within landmark_agreement (geodesic, unit-area target) of its partner. So 3 landmarks,
+  // one triple, still give BIM maps to blend, and the landmarks reject the swapped ones.
+  // false, or more mixed triples than landmark_mixed_max: the landmark triples alone.
+  bool landmark_feature_points = true;
+  double landmark_agreement = 0.1;
+  long long landmark_mixed_max = 1000000;
 };
 
 // A surface prepared for BIM (all in the normalized frame: unit area, area centroid at 0).
@@ -103,7 +113,8 @@ struct BIMSurface {
   Eigen::MatrixXd even_dist;        // n × |P_even| heat geodesic distances
   Eigen::SparseMatrix<double, Eigen::RowMajor> interp;  // n × |P_even| Gaussian weights, rows sum 1
   Eigen::VectorXd agd;              // average geodesic distance (Sec. 4)
-  std::vector<int> features;        // feature vertices (AGD maxima, or landmarks)
+  std::vector<int> features;        // feature vertices (AGD maxima; or the landmarks first,
+                                    // then the AGD maxima away from them)
   Eigen::MatrixXd feature_dist;     // n × |features| heat geodesic distances from the features
   ConformalFlattening flat;         // vertices on the Riemann sphere
   std::vector<Homogeneous> hom;     // vertices in homogeneous plane coordinates
@@ -131,6 +142,10 @@ struct BIMCandidate {
   std::array<int, 3> source{}, target{};  // feature indices into src.features / dst.features
   Mobius mobius;
 };
+
+// Whether BIMOptions::landmark_feature_points applies to this many landmarks (at least 3, and
+// at most landmark_mixed_max mixed triples with max_features AGD maxima a side).
+bool bim_landmark_guided(const BIMOptions& options, int num_landmarks);
 
 // All candidates (Sec. 4), pruned to max_candidates: by seeded random removal (Sec. 6.2) down
 // to options.candidate_pool, then the most confident ones (when candidate_pool > max_candidates

@@ -231,8 +231,8 @@ BarycentricMap surface_initial_map(const TetMesh& A, const TetMesh& B, const Tri
 // guard and untangling). Returns {map_AB, map_BA} (vertex -> face + barycentric). `used`
 // receives a short description of the method. elastic: the elastic settings (null: the
 // surface-map command's defaults). landmarks_A/B (vertices of SA / SB, k >= 3 pairs, or
-// none): the initial maps are BIM over landmark triplets and the landmarks anchor the
-// elastic refinement, as `surface-map --method elastic --landmarks` does. reverse_candidates
+// none): the initial maps are BIM guided by the landmarks (BIMOptions::landmark_feature_points)
+// and the landmarks anchor the elastic refinement, as `surface-map --method elastic --landmarks` does. reverse_candidates
 // (without landmarks only): BIMOptions::reverse_candidates (surface-map's default: the less
 // confident direction takes the inverse of the other's blend). (elastic_refinement, elastic,
 // landmarks, reverse_candidates: added, backward compatible.)
