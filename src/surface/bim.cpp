@@ -1076,6 +1076,19 @@ void take_inverse(const BIMSurface& src, const BIMSurface& dst, const BIMDirecti
 }
 }  // namespace
 
+namespace {
+// "Landmarks among the feature points": a triple that is not a landmark triple needs an added AGD
+// maximum on each surface. When one surface has none, the other's go too, so that they do not
+// change the landmark triples' groups through the implied correspondences (L: the landmarks).
+void keep_added_features_if_both(BIMSurface& a, BIMSurface& b, int L) {
+  if (L == 0 || (int(a.features.size()) > L && int(b.features.size()) > L)) return;
+  for (BIMSurface* s : {&a, &b}) {
+    s->features.resize(L);
+    s->feature_dist.conservativeResize(Eigen::NoChange, L);
+  }
+}
+}  // namespace
+
 BIMResult blended_intrinsic_maps(const TriMesh& A, const TriMesh& B, const BIMOptions& opt,
                                  const ProgressCallback& progress) {
   auto t0 = Clock::now();
@@ -1091,6 +1104,7 @@ BIMResult blended_intrinsic_maps(const TriMesh& A, const TriMesh& B, const BIMOp
     try {
       BIMSurface sa = bim_prepare(A, o.name_A, o, o.landmarks_A, progress);
       BIMSurface sb = bim_prepare(B, o.name_B, o, o.landmarks_B, progress);
+      keep_added_features_if_both(sa, sb, int(o.landmarks_A.size()));
       BIMResult out = bim_prepared(sa, sb, o, progress, true);
       out.seed = o.seed;
       out.seed_retries = attempt;

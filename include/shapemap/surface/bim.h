@@ -95,6 +95,7 @@ struct BIMOptions {
   // to its partner only; a candidate that is not a landmark triple must carry every landmark
   // within landmark_agreement (geodesic, unit-area target) of its partner. So 3 landmarks,
   // one triple, still give BIM maps to blend, and the landmarks reject the swapped ones.
+  // blended_intrinsic_maps keeps the added maxima only when both surfaces have some.
   // false, or more mixed triples than landmark_mixed_max: the landmark triples alone.
   bool landmark_feature_points = true;
   double landmark_agreement = 0.1;
