@@ -593,6 +593,8 @@ void TetLocator::build(const Eigen::MatrixXd& V, const Eigen::MatrixXi& T) {
 
 ClosestPointResult TetLocator::locate(const Eigen::Vector3d& p) const { return bvh_.query(p); }
 
+ClosestPointResult TetLocator::locate(const Eigen::Vector3d& p, int hint) const { return bvh_.query(p, hint); }
+
 std::vector<ClosestPointResult> TetLocator::locate(const Eigen::MatrixXd& P) const {
   return bvh_.query(P);
 }

@@ -418,5 +418,20 @@ TEST(TetLocator, InsideAndOutside) {
     ClosestPointResult ref = brute_force<3>(p, V, T);
     EXPECT_NEAR(r.sqdist, ref.sqdist, 1e-12 * (1 + ref.sqdist));
     EXPECT_GT(r.sqdist, 0.0);
+    // Warm-started from any tet (near, far, none): the same distance as brute force.
+    for (int hint : {r.elem, pick(rng), -1}) {
+      const ClosestPointResult h = loc.locate(p, hint);
+      EXPECT_NEAR(h.sqdist, ref.sqdist, 1e-12 * (1 + ref.sqdist)) << hint;
+    }
+  }
+  // Inside, from the containing tet, from a random one: still contained (distance 0), in a tet
+  // that contains the point.
+  for (int i = 0; i < 300; ++i) {
+    const Eigen::Vector3d p = P.row(i).transpose();
+    for (int hint : {res[i].elem, pick(rng)}) {
+      const ClosestPointResult h = loc.locate(p, hint);
+      EXPECT_EQ(h.sqdist, 0.0) << i;
+      check_result<3>(p, h, V, T);
+    }
   }
 }
