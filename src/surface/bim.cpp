@@ -335,6 +335,22 @@ void most_confident(const BIMSurface& src, const BIMSurface& dst, int keep, std:
   cand = std::move(kept);
 }
 
+// Sec. 4: the Möbius map of a candidate's three correspondences (false when its feature
+// points coincide numerically on the sphere: no map).
+bool candidate_mobius(const BIMSurface& src, const BIMSurface& dst, BIMCandidate& cd) {
+  Homogeneous z[3], w[3];
+  for (int k = 0; k < 3; ++k) {
+    z[k] = src.hom[src.features[cd.source[k]]];
+    w[k] = dst.hom[dst.features[cd.target[k]]];
+  }
+  try {
+    cd.mobius = Mobius::from_three_points(z, w);
+  } catch (const Error&) {
+    return false;
+  }
+  return true;
+}
+
 // Triples of "Landmarks among the feature points" that are not landmark triples: a triple
 // with k landmarks (k = 0, 1, 2) and 3 - k AGD maxima, matched to the k partners and to an
 // ordered choice of 3 - k distinct target maxima; m1, m2 the maxima on each side.
@@ -393,16 +409,7 @@ std::vector<BIMCandidate> guided_candidates(const BIMSurface& src, const BIMSurf
 #pragma omp parallel for schedule(dynamic, 256)
   for (long long i = 0; i < (long long)all.size(); ++i) {
     BIMCandidate& cd = all[i];
-    Homogeneous z[3], w[3];
-    for (int k = 0; k < 3; ++k) {
-      z[k] = src.hom[src.features[cd.source[k]]];
-      w[k] = dst.hom[dst.features[cd.target[k]]];
-    }
-    try {
-      cd.mobius = Mobius::from_three_points(z, w);
-    } catch (const Error&) {
-      continue;  // feature points numerically coincident on the sphere: no map
-    }
+    if (!candidate_mobius(src, dst, cd)) continue;
     const bool landmark_triple = cd.source[0] < L && cd.source[1] < L && cd.source[2] < L;
     keep[i] = landmark_triple ||
               landmark_disagreement(src, dst, cd.mobius, L, opt.landmark_agreement) <= opt.landmark_agreement;
@@ -481,19 +488,8 @@ std::vector<BIMCandidate> bim_candidates(const BIMSurface& src, const BIMSurface
   }
   std::vector<BIMCandidate> valid;
   valid.reserve(all.size());
-  for (auto& cd : all) {
-    Homogeneous z[3], w[3];
-    for (int k = 0; k < 3; ++k) {
-      z[k] = src.hom[src.features[cd.source[k]]];
-      w[k] = dst.hom[dst.features[cd.target[k]]];
-    }
-    try {
-      cd.mobius = Mobius::from_three_points(z, w);
-    } catch (const Error&) {
-      continue;  // feature points numerically coincident on the sphere: no map
-    }
-    valid.push_back(cd);
-  }
+  for (auto& cd : all)
+    if (candidate_mobius(src, dst, cd)) valid.push_back(cd);
   if (ranked && int(valid.size()) > opt.max_candidates) most_confident(src, dst, opt.max_candidates, valid);
   return valid;
 }
