@@ -7,10 +7,15 @@
 //    >= 0.90 (near-isometric) and >= 0.75 (non-isometric) on every pair;
 //  - timing: one pair of about BIM_VERTICES (12500) vertices with its stage breakdown;
 //    target <= 10 s total.
-// Environment also: BIM_REVERSE=1 (BIMOptions::reverse_candidates).
+// Environment also: BIM_REVERSE=1 (BIMOptions::reverse_candidates); BIM_LANDMARKS=N: N
+// farthest-point landmarks of A with their true partners on B (the truth's heaviest corner)
+// guide BIM, with BIM_LANDMARK_FEATURES=0 their triples alone (BIMOptions::
+// landmark_feature_points), BIM_LANDMARK_AGREEMENT=D its landmark_agreement; the targets stay
+// those of the automatic method.
 #include "shapemap/openmp_policy.h"
 #include "shapemap/eval/surface_metrics.h"
 #include "shapemap/generate.h"
+#include "shapemap/geometry/sampling.h"
 #include "shapemap/maps.h"
 #include "shapemap/surface/bim.h"
 #include <algorithm>
@@ -36,6 +41,16 @@ Outcome run_pair(std::uint64_t seed, PairKind kind, int vertices, bool print_sta
   if (const char* v = std::getenv("BIM_REVERSE")) o.symmetric = o.reverse_candidates = std::atoi(v) != 0;
   // BIM_MATCHING_SEARCH=N: at most N changes of the matching search (0: the paper's groups alone).
   if (const char* v = std::getenv("BIM_MATCHING_SEARCH")) o.matching_search_sweeps = std::atoi(v);
+  if (const char* v = std::getenv("BIM_LANDMARKS"); v && std::atoi(v) > 0) {
+    o.landmarks_A = farthest_point_sampling_graph(p.A.V, p.A.F, std::atoi(v), 0);
+    for (int a : o.landmarks_A) {
+      int k = 0;
+      p.truth_AB.bary.row(a).maxCoeff(&k);
+      o.landmarks_B.push_back(p.B.F(p.truth_AB.elem(a), k));
+    }
+    if (const char* f = std::getenv("BIM_LANDMARK_FEATURES")) o.landmark_feature_points = std::atoi(f) != 0;
+    if (const char* f = std::getenv("BIM_LANDMARK_AGREEMENT")) o.landmark_agreement = std::atof(f);
+  }
   auto t0 = std::chrono::steady_clock::now();
   BIMResult r = blended_intrinsic_maps(p.A, p.B, o);
   Outcome out;

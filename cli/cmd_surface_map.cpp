@@ -155,7 +155,7 @@ CLI::App* add_surface_map_command(CLI::App& parent, SurfaceMapArgs& a) {
                 "--no-landmark-features: the landmark triples alone");
   app->add_option("--landmark-agreement", a.bim.landmark_agreement,
                   "BIM with --landmarks: a candidate that is not a landmark triple must carry every landmark "
-                  "within this geodesic distance of its partner (unit-area target; default 0.1)")
+                  "within this geodesic distance of its partner (unit-area target; default 0.35)")
       ->check(CLI::PositiveNumber);
   app->add_option("--features", a.bim.max_features, "BIM: at most this many AGD feature points per surface")
       ->check(CLI::Range(3, 30));

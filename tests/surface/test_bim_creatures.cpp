@@ -214,5 +214,5 @@ TEST(BimCreatures, ThreeLandmarksGuideTheFeatureCandidates) {
               cs.mean);
   EXPECT_GT(guided.AB.selected.size(), 1u);
   EXPECT_LT(cg.mean, cs.mean);
-  EXPECT_GE(cg.within_0_1, 0.70);  // measured 0.734 (the triple alone 0.432)
+  EXPECT_GE(cg.within_0_1, 0.90);  // measured 0.939, 71 of 661 candidates (the triple alone 0.432)
 }

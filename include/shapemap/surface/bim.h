@@ -98,7 +98,7 @@ struct BIMOptions {
   // blended_intrinsic_maps keeps the added maxima only when both surfaces have some.
   // false, or more mixed triples than landmark_mixed_max: the landmark triples alone.
   bool landmark_feature_points = true;
-  double landmark_agreement = 0.1;
+  double landmark_agreement = 0.35;  // docs/methods.md: 0.1 kept too few maps to blend
   long long landmark_mixed_max = 1000000;
 };
 
