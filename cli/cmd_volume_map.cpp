@@ -144,7 +144,7 @@ int run_volume_map_command(VolumeMapArgs& a, const GlobalOptions& g) {
       req.init = "auto";
       info(g, "volume-map: note: fewer than 4 distinct landmark pairs: the landmark initialization (Sec. 5.1) "
               "would put every vertex on one of them, a flat start; they guide --init auto instead "
-              "(--init landmarks forces it; docs/methods.md, \"Landmarks among the feature points\")");
+              "(--init landmarks forces it; docs/methods.md, \"Few landmarks: the automatic start guided by them\")");
     }
   }
   if (req.init == "surface-map" && a.surface_map_meshes.size() == 2) {

@@ -86,8 +86,9 @@ struct BIMOptions {
   double heat_t_factor = 1.0;       // heat method t = factor * h^2
   int min_vertices = 100;           // input guard
   std::string name_A = "A", name_B = "B";  // names used in error messages (file paths)
-  // Known correspondences (landmarks): if non-empty, feature points are these vertex
-  // pairs and the candidates are all triplets of them (no permutations).
+  // Known correspondences (landmarks): if non-empty, the first feature points are these vertex
+  // pairs and the candidates include all triplets of them (no permutations; the others:
+  // landmark_feature_points below).
   std::vector<int> landmarks_A, landmarks_B;
   // Our addition (docs/methods.md, "Landmarks among the feature points"): with landmarks, the
   // AGD maxima farther than feature_radius from every landmark are feature points too, and
