@@ -424,8 +424,7 @@ std::vector<BIMCandidate> guided_candidates(const BIMSurface& src, const BIMSurf
 }  // namespace
 
 bool bim_landmark_guided(const BIMOptions& opt, int num_landmarks) {
-  return num_landmarks >= 3 && opt.landmark_feature_points &&
-         mixed_triples(num_landmarks, opt.max_features, opt.max_features) <= opt.landmark_mixed_max;
+  return num_landmarks >= 3 && opt.landmark_feature_points;
 }
 
 std::vector<BIMCandidate> bim_candidates(const BIMSurface& src, const BIMSurface& dst,
@@ -1076,8 +1075,11 @@ namespace {
 // "Landmarks among the feature points": a triple that is not a landmark triple needs an added AGD
 // maximum on each surface. When one surface has none, the other's go too, so that they do not
 // change the landmark triples' groups through the implied correspondences (L: the landmarks).
-void keep_added_features_if_both(BIMSurface& a, BIMSurface& b, int L) {
-  if (L == 0 || (int(a.features.size()) > L && int(b.features.size()) > L)) return;
+// They go too when the maxima found would give more mixed triples than landmark_mixed_max (the
+// count of maxima actually found decides, not max_features).
+void keep_added_features_if_both(BIMSurface& a, BIMSurface& b, int L, long long mixed_max) {
+  const long long ma = (long long)a.features.size() - L, mb = (long long)b.features.size() - L;
+  if (L == 0 || (ma > 0 && mb > 0 && mixed_triples(L, ma, mb) <= mixed_max)) return;
   for (BIMSurface* s : {&a, &b}) {
     s->features.resize(L);
     s->feature_dist.conservativeResize(Eigen::NoChange, L);
@@ -1100,7 +1102,7 @@ BIMResult blended_intrinsic_maps(const TriMesh& A, const TriMesh& B, const BIMOp
     try {
       BIMSurface sa = bim_prepare(A, o.name_A, o, o.landmarks_A, progress);
       BIMSurface sb = bim_prepare(B, o.name_B, o, o.landmarks_B, progress);
-      keep_added_features_if_both(sa, sb, int(o.landmarks_A.size()));
+      keep_added_features_if_both(sa, sb, int(o.landmarks_A.size()), o.landmark_mixed_max);
       BIMResult out = bim_prepared(sa, sb, o, progress, true);
       out.seed = o.seed;
       out.seed_retries = attempt;

@@ -216,3 +216,30 @@ TEST(BimCreatures, ThreeLandmarksGuideTheFeatureCandidates) {
   EXPECT_LT(cg.mean, cs.mean);
   EXPECT_GE(cg.within_0_1, 0.90);  // measured 0.939, 71 of 661 candidates (the triple alone 0.432)
 }
+
+// Whether the added maxima stay is decided from the maxima found, not from max_features' worst
+// case: with max_features 30 and 3 landmarks (up to ~10^8 mixed triples) the few maxima found on
+// the generated pair still join the landmarks; with landmark_mixed_max below their mixed
+// triples they go, and the map is the landmark triples' own.
+TEST(BimCreatures, TheMaximaFoundDecideWhetherLandmarksGuide) {
+  GeneratedPair p = make_creature_pair(2, PairKind::NonIsometric, 1500);
+  BIMOptions o;
+  o.seed = 2;
+  o.symmetric = false;
+  o.max_features = 30;
+  o.landmarks_A = farthest_point_sampling_graph(p.A.V, p.A.F, 3, 0);
+  for (int v : o.landmarks_A) {
+    int k = 0;
+    p.truth_AB.bary.row(v).maxCoeff(&k);
+    o.landmarks_B.push_back(p.B.F(p.truth_AB.elem(v), k));
+  }
+  const BIMResult guided = blended_intrinsic_maps(p.A, p.B, o);
+  ASSERT_GT(guided.features_A.size(), 3u);
+  ASSERT_GT(guided.features_B.size(), 3u);
+  EXPECT_GT(guided.AB.num_candidates, 1);
+  o.landmark_mixed_max = 0;
+  const BIMResult dropped = blended_intrinsic_maps(p.A, p.B, o);
+  EXPECT_EQ(dropped.features_A.size(), 3u);
+  EXPECT_EQ(dropped.features_B.size(), 3u);
+  EXPECT_EQ(dropped.AB.num_candidates, 1);
+}

@@ -96,8 +96,9 @@ struct BIMOptions {
   // to its partner only; a candidate that is not a landmark triple must carry every landmark
   // within landmark_agreement (geodesic, unit-area target) of its partner. So 3 landmarks,
   // one triple, still give BIM maps to blend, and the landmarks reject the swapped ones.
-  // blended_intrinsic_maps keeps the added maxima only when both surfaces have some.
-  // false, or more mixed triples than landmark_mixed_max: the landmark triples alone.
+  // blended_intrinsic_maps keeps the added maxima only when both surfaces have some, and only
+  // while the maxima found give at most landmark_mixed_max mixed triples (else, or when false:
+  // the landmark triples alone).
   bool landmark_feature_points = true;
   double landmark_agreement = 0.35;  // docs/methods.md: 0.1 kept too few maps to blend
   long long landmark_mixed_max = 1000000;
@@ -145,8 +146,9 @@ struct BIMCandidate {
   Mobius mobius;
 };
 
-// Whether BIMOptions::landmark_feature_points applies to this many landmarks (at least 3, and
-// at most landmark_mixed_max mixed triples with max_features AGD maxima a side).
+// Whether BIMOptions::landmark_feature_points applies to this many landmarks (at least 3);
+// blended_intrinsic_maps then keeps the added maxima when both surfaces have some and they give
+// at most landmark_mixed_max mixed triples.
 bool bim_landmark_guided(const BIMOptions& options, int num_landmarks);
 
 // All candidates (Sec. 4), pruned to max_candidates: by seeded random removal (Sec. 6.2) down
