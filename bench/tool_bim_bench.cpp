@@ -41,6 +41,10 @@ Outcome run_pair(std::uint64_t seed, PairKind kind, int vertices, bool print_sta
   if (const char* v = std::getenv("BIM_REVERSE")) o.symmetric = o.reverse_candidates = std::atoi(v) != 0;
   // BIM_MATCHING_SEARCH=N: at most N changes of the matching search (0: the paper's groups alone).
   if (const char* v = std::getenv("BIM_MATCHING_SEARCH")) o.matching_search_sweeps = std::atoi(v);
+  // BIM_MAX_FEATURES=3: at most 3 AGD maxima a side (no two maps to blend); BIM_BLEND_FEATURES=N:
+  // then BIM again guided by the single map, N features a side (0: off; "Too few features to blend").
+  if (const char* v = std::getenv("BIM_MAX_FEATURES")) o.max_features = std::atoi(v);
+  if (const char* v = std::getenv("BIM_BLEND_FEATURES")) o.blend_min_features = std::atoi(v);
   if (const char* v = std::getenv("BIM_LANDMARKS"); v && std::atoi(v) > 0) {
     o.landmarks_A = farthest_point_sampling_graph(p.A.V, p.A.F, std::atoi(v), 0);
     for (int a : o.landmarks_A) {

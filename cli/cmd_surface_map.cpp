@@ -162,6 +162,16 @@ CLI::App* add_surface_map_command(CLI::App& parent, SurfaceMapArgs& a) {
   app->add_option("--min-features", a.bim.min_features,
                   "BIM: fewer AGD maxima than this on a surface: add evenly spread samples up to it")
       ->check(CLI::Range(3, 30));
+  app->add_option("--blend-features", a.bim.blend_min_features,
+                  "BIM without landmarks: when no two candidate maps can be blended (3 features on a surface), "
+                  "run again with evenly spread samples added up to this many features a side, guided by the "
+                  "single map's triple, and keep that blend when it is more confident (default 12; 0: off; "
+                  "docs/methods.md, \"Too few features to blend\")")
+      ->check(CLI::Range(0, 30));
+  app->add_option("--blend-agreement", a.bim.blend_agreement,
+                  "BIM, that second run: a candidate must carry the single map's triple within this geodesic "
+                  "distance of its partners (unit-area target; default 1.0)")
+      ->check(CLI::PositiveNumber);
   app->add_option("--feature-radius", a.bim.feature_radius,
                   "BIM: an AGD maximum must be the largest within this geodesic radius (unit-area surface)")
       ->check(CLI::PositiveNumber);

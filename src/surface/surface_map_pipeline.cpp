@@ -163,12 +163,22 @@ BIMResult bim_for_request(const TriMesh& RA, const TriMesh& RB, const SurfaceMap
   // Sec. 6.2 blends maps that share two correspondences without a conflict; with 3 features on
   // a surface no two maps do (each uses all three), so the map is one Moebius map. The paper's
   // glasses fail this way (Fig. 14, "long, thin parts"); so do SHREC'07's glasses 41 -> 44 here.
-  if (o.landmarks_A.empty() && r.AB.num_consistent_pairs == 0)
+  if (r.blend_retry_features_A > 0)
+    notes.push_back("surface-map: note: BIM found " + std::to_string(r.blend_retry_features_A) + " feature points on " +
+                    o.name_A + ", " + std::to_string(r.blend_retry_features_B) + " on " + o.name_B +
+                    ": no two candidate maps could be blended (Sec. 6.2), so it ran again with evenly spread "
+                    "samples added up to " + std::to_string(o.blend_min_features) + " a side, guided by the single "
+                    "map's triple: a blend of " + std::to_string(r.AB.selected.size()) +
+                    " maps, more confident (--blend-features 0 keeps the single Moebius map)");
+  else if (o.landmarks_A.empty() && r.AB.num_consistent_pairs == 0)
     notes.push_back("surface-map: note: BIM found " + std::to_string(r.features_A.size()) + " feature points on " + o.name_A + ", " +
                     std::to_string(r.features_B.size()) + " on " + o.name_B +
                     ": no two candidate maps share two correspondences without a conflict, so the map is a "
                     "single Moebius map, not a blend (Sec. 6.2); shapes with long thin parts map poorly so "
-                    "(--landmarks may help)");
+                    "(--landmarks may help)" +
+                    (r.blend_retry_confidence > 0 ? "; a second run with spread samples, guided by its triple, was "
+                                                    "less confident (" + std::to_string(r.blend_retry_confidence) + ")"
+                                                  : std::string()));
   return r;
 }
 
@@ -192,6 +202,8 @@ void run_bim(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& req, c
                      {"matching_search", o.matching_search_sweeps},
                      {"eigenvalue_fraction", o.eigenvalue_fraction},
                      {"entry_fraction", o.entry_fraction}, {"feature_radius", o.feature_radius},
+                     {"min_features", o.min_features},     {"blend_min_features", o.blend_min_features},
+                     {"blend_agreement", o.blend_agreement},
                      {"symmetric", o.symmetric}, {"reverse_candidates", o.reverse_candidates}};
   // BIM's own output (Sec. 5): candidates, consistency spectrum, selected maps, stages.
   nlohmann::json bim;
@@ -199,6 +211,9 @@ void run_bim(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& req, c
   bim["features_B"] = r.features_B;
   bim["seed"] = r.seed;
   bim["seed_retries"] = r.seed_retries;  // > 0: no candidate map with the given seed
+  if (r.blend_retry_confidence > 0)  // none of the first features' maps could be blended: the second run
+    bim["blend_retry"] = {{"kept", r.blend_retry_features_A > 0}, {"confidence", r.blend_retry_confidence},
+                          {"features_A", r.blend_retry_features_A}, {"features_B", r.blend_retry_features_B}};
   bim["AB"] = direction_json(r.AB);
   if (req.symmetric) bim["BA"] = direction_json(r.BA);
   nlohmann::json stages = nlohmann::json::object();

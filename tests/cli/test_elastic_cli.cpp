@@ -238,14 +238,22 @@ TEST(BimCli, MinFeaturesAndFeatureRadiusReachBim) {
     const std::string cmd = std::string(SHAPEMAP_BINARY) + " surface-map " + A + " " + B + args + " > /dev/null 2> " + err;
     return std::system(cmd.c_str());
   };
-  ASSERT_EQ(noisy(" -o " + t.p("few") + fast + " --feature-radius 5", t.p("few.err")), 0);
+  ASSERT_EQ(noisy(" -o " + t.p("few") + fast + " --feature-radius 5 --blend-features 0", t.p("few.err")), 0);
+  ASSERT_EQ(noisy(" -o " + t.p("retry") + fast + " --feature-radius 5", t.p("retry.err")), 0);
   ASSERT_EQ(noisy(" -o " + t.p("many") + fast + " --feature-radius 5 --min-features 7", t.p("many.err")), 0);
-  // With 3 features a side no two candidate maps can be blended (Sec. 6.2): a note says so.
+  // With 3 features a side no two candidate maps can be blended (Sec. 6.2): a note says so, and
+  // by default BIM runs again with spread samples ("Too few features to blend"), reported.
   EXPECT_NE(shapemap::testing::slurp(t.p("few.err")).find("single Moebius map"), std::string::npos);
   EXPECT_EQ(shapemap::testing::slurp(t.p("many.err")).find("single Moebius map"), std::string::npos);
   const nlohmann::json few = read_json(t.dir / "few" / "report.json"), many = read_json(t.dir / "many" / "report.json");
+  const nlohmann::json retry = read_json(t.dir / "retry" / "report.json");
   // A radius larger than the unit-area surface leaves one maximum; the default fill gives 3.
   EXPECT_EQ(few["bim"]["features_A"].size(), 3u);
+  EXPECT_FALSE(few["bim"].contains("blend_retry"));
+  ASSERT_TRUE(retry["bim"].contains("blend_retry"));
+  const bool kept = retry["bim"]["blend_retry"]["kept"].get<bool>();
+  EXPECT_EQ(retry["bim"]["features_A"].size(), kept ? 12u : 3u);
+  EXPECT_NE(shapemap::testing::slurp(t.p("retry.err")).find(kept ? "ran again" : "less confident"), std::string::npos);
   EXPECT_EQ(many["bim"]["features_A"].size(), 7u);
   EXPECT_EQ(many["bim"]["features_B"].size(), 7u);
   EXPECT_EQ(run("surface-map " + A + " " + B + " -o " + t.p("bad") + fast + " --min-features 2"), 2);

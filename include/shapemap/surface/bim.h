@@ -102,6 +102,14 @@ struct BIMOptions {
   bool landmark_feature_points = true;
   double landmark_agreement = 0.35;  // docs/methods.md: 0.1 kept too few maps to blend
   long long landmark_mixed_max = 1000000;
+  // Our addition (docs/methods.md, "Too few features to blend"): Sec. 6.2 blends maps that share
+  // two correspondences without a conflict; with 3 feature points on a surface no two maps do,
+  // and BIM's map is one Moebius map, exact only near its triple (glasses). Then, without
+  // landmarks, BIM runs again with P_even samples (FPS order) added up to blend_min_features a
+  // side, guided by the single map's triple as by landmarks with blend_agreement as their
+  // landmark_agreement, and keeps that blend when it is more confident. 0: off.
+  int blend_min_features = 12;
+  double blend_agreement = 1.0;
 };
 
 // A surface prepared for BIM (all in the normalized frame: unit area, area centroid at 0).
@@ -221,6 +229,10 @@ struct BIMResult {
   // found no candidate map with it (seed_retries > 0; see NoCandidateMaps).
   std::uint64_t seed = 0;
   int seed_retries = 0;
+  // > 0: the features each surface had when BIM found no two maps to blend, ran again with
+  // options.blend_min_features a side and kept that blend (features_A / features_B are its).
+  int blend_retry_features_A = 0, blend_retry_features_B = 0;
+  double blend_retry_confidence = 0;  // > 0: that second run's integrated confidence (kept or not)
   std::vector<std::pair<std::string, double>> timings;  // per stage, seconds
   double total_seconds = 0;
 };
