@@ -284,3 +284,19 @@ def test_landmarks_guide_bim_or_replace_its_features(surfaces, pair):
     assert t.report["bim"]["AB"]["num_candidates"] == 1 and len(t.report["bim"]["features_A"]) == 3
     assert len(g.report["bim"]["features_A"]) > 3 and g.report["bim"]["features_A"][:3] == [int(i) for i in LA]
     assert g.report["bim"]["AB"]["num_candidates"] >= 1
+
+
+def test_too_few_features_to_blend_runs_bim_again(surfaces):
+    """blend_features (`--blend-features`): with 3 features a side no two of BIM's candidate maps can
+    be blended; BIM then runs again with spread samples, guided by the single map's triple, and
+    reports it (docs/methods.md, "Too few features to blend"); 0 keeps the single map."""
+    (VA, FA), (VB, FB) = surfaces
+    fast = dict(FAST_BIM, features=3)
+    single = shapemap.surface_map(VA, FA, VB, FB, blend_features=0, **fast)
+    again = shapemap.surface_map(VA, FA, VB, FB, **fast)
+    assert len(single.report["bim"]["features_A"]) == 3 and "blend_retry" not in single.report["bim"]
+    r = again.report["bim"]["blend_retry"]
+    assert r["confidence"] > 0
+    assert len(again.report["bim"]["features_A"]) == (12 if r["kept"] else 3)
+    if r["kept"]:
+        assert again.report["bim"]["AB"]["integrated_confidence"] > single.report["bim"]["AB"]["integrated_confidence"]
