@@ -42,9 +42,11 @@ Outcome run_pair(std::uint64_t seed, PairKind kind, int vertices, bool print_sta
   // BIM_MATCHING_SEARCH=N: at most N changes of the matching search (0: the paper's groups alone).
   if (const char* v = std::getenv("BIM_MATCHING_SEARCH")) o.matching_search_sweeps = std::atoi(v);
   // BIM_MAX_FEATURES=3: at most 3 AGD maxima a side (no two maps to blend); BIM_BLEND_FEATURES=N:
-  // then BIM again guided by the single map, N features a side (0: off; "Too few features to blend").
+  // then BIM again guided by single maps, N features a side (0: off; "Too few features to blend");
+  // BIM_BLEND_TRIPLES=T: guided by the T most confident single maps' triples, one run each.
   if (const char* v = std::getenv("BIM_MAX_FEATURES")) o.max_features = std::atoi(v);
   if (const char* v = std::getenv("BIM_BLEND_FEATURES")) o.blend_min_features = std::atoi(v);
+  if (const char* v = std::getenv("BIM_BLEND_TRIPLES")) o.blend_retry_triples = std::atoi(v);
   if (const char* v = std::getenv("BIM_LANDMARKS"); v && std::atoi(v) > 0) {
     o.landmarks_A = farthest_point_sampling_graph(p.A.V, p.A.F, std::atoi(v), 0);
     for (int a : o.landmarks_A) {
@@ -66,10 +68,11 @@ Outcome run_pair(std::uint64_t seed, PairKind kind, int vertices, bool print_sta
   out.confidence = r.AB.integrated_confidence;
   out.candidates = r.AB.num_candidates;
   out.selected = int(r.AB.selected.size());
-  std::printf("seed %llu %s |A|=%d |B|=%d features %zu/%zu K=%d blended %d conf %.3f: within 0.1 %.3f mean %.4f max %.3f (%.2f s)\n",
+  std::printf("seed %llu %s |A|=%d |B|=%d features %zu/%zu K=%d blended %d conf %.3f: within 0.1 %.3f mean %.4f max %.3f (%.2f s)%s\n",
               (unsigned long long)seed, kind == PairKind::NearIsometric ? "near-iso" : "non-iso",
               p.A.num_vertices(), p.B.num_vertices(), r.features_A.size(), r.features_B.size(), out.candidates,
-              out.selected, out.confidence, out.within, out.mean, out.max, out.seconds);
+              out.selected, out.confidence, out.within, out.mean, out.max, out.seconds,
+              r.blend_retry_features_A > 0 ? (" second run guided by single map " + std::to_string(r.blend_retry_rank)).c_str() : "");
   if (print_stages)
     for (auto& [n, s] : r.timings) std::printf("    %-28s %.3f s\n", n.c_str(), s);
   return out;

@@ -164,12 +164,16 @@ CLI::App* add_surface_map_command(CLI::App& parent, SurfaceMapArgs& a) {
       ->check(CLI::Range(3, 30));
   app->add_option("--blend-features", a.bim.blend_min_features,
                   "BIM without landmarks: when no two candidate maps can be blended (3 features on a surface), "
-                  "run again with evenly spread samples added up to this many features a side, guided by the "
+                  "run again with evenly spread samples added up to this many features a side, guided by a "
                   "single map's triple, and keep that blend when it is more confident (default 12; 0: off; "
                   "docs/methods.md, \"Too few features to blend\")")
       ->check(CLI::Range(0, 30));
+  app->add_option("--blend-triples", a.bim.blend_retry_triples,
+                  "BIM, that second run: once for each of this many most confident single maps' triples; the "
+                  "most confident blend is kept (default 1: the best single map's only; docs/methods.md)")
+      ->check(CLI::Range(1, 20));
   app->add_option("--blend-agreement", a.bim.blend_agreement,
-                  "BIM, that second run: a candidate must carry the single map's triple within this geodesic "
+                  "BIM, that second run: a candidate must carry its guiding triple within this geodesic "
                   "distance of its partners (unit-area target; default 1.0)")
       ->check(CLI::PositiveNumber);
   app->add_option("--feature-radius", a.bim.feature_radius,

@@ -1003,21 +1003,24 @@ struct BimDirection {
     R.timings.push_back({"matching_search", seconds_since(t0)});
   }
 
+  BIMMapInfo map_info(int i) const {
+    BIMMapInfo info;
+    info.index = i;
+    for (int k = 0; k < 3; ++k) {
+      info.source[k] = src.features[cand[i].source[k]];
+      info.target[k] = dst.features[cand[i].target[k]];
+    }
+    info.integrated_confidence = cand_conf(i);
+    return info;
+  }
+
   // R's map, confidences and selected maps from the chosen blend of the maps G.
   void output(const Blended& best, const std::vector<int>& G) {
     const int n = src.mesh.num_vertices();
     R.integrated_confidence = best.ic;
     R.confidence = best.conf;
-    for (int i : G) {
-      BIMMapInfo info;
-      info.index = i;
-      for (int k = 0; k < 3; ++k) {
-        info.source[k] = src.features[cand[i].source[k]];
-        info.target[k] = dst.features[cand[i].target[k]];
-      }
-      info.integrated_confidence = cand_conf(i);
-      R.selected.push_back(info);
-    }
+    for (int i : G) R.selected.push_back(map_info(i));
+    for (const auto& g : groups) R.group_leads.push_back(map_info(g.front()));
     R.map.elem.resize(n);
     R.map.bary.resize(n, 3);
     for (int v = 0; v < n; ++v) {
@@ -1168,6 +1171,37 @@ BIMSurface anchored_spread_features(const BIMSurface& s, const std::array<int, 3
 }
 }  // namespace
 
+namespace {
+// The triples (A's features, B's features) of the deciding direction's single maps, the most
+// confident first, without repeats: its selected map, then its other groups' leads.
+std::vector<std::pair<std::array<int, 3>, std::array<int, 3>>> guiding_triples(const BIMResult& r, bool ba, int count) {
+  const BIMDirectionResult& d = ba ? r.BA : r.AB;
+  std::vector<BIMMapInfo> maps;
+  if (!d.selected.empty()) maps.push_back(d.selected[0]);
+  std::vector<int> order(d.group_leads.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    return d.group_confidence.at(a) > d.group_confidence.at(b);
+  });
+  for (int g : order) maps.push_back(d.group_leads[g]);
+  std::vector<std::pair<std::array<int, 3>, std::array<int, 3>>> out;
+  for (const BIMMapInfo& m : maps) {
+    auto t = ba ? std::make_pair(m.target, m.source) : std::make_pair(m.source, m.target);
+    // The same three correspondences in another order are the same guide.
+    auto same = [&](const std::pair<std::array<int, 3>, std::array<int, 3>>& u) {
+      for (int k = 0; k < 3; ++k) {
+        const auto it = std::find(u.first.begin(), u.first.end(), t.first[k]);
+        if (it == u.first.end() || u.second[it - u.first.begin()] != t.second[k]) return false;
+      }
+      return true;
+    };
+    if (std::none_of(out.begin(), out.end(), same)) out.push_back(t);
+    if (int(out.size()) >= count) break;
+  }
+  return out;
+}
+}  // namespace
+
 // The second run's candidates: with the triple in every candidate most pairs share two
 // correspondences, so Sec. 7's consistency matrix costs far more per candidate (SHREC'07 busts,
 // 25k vertices, both directions: 37 s with 10,000, under 4.2 s with 2,000; generated pairs with
@@ -1183,39 +1217,58 @@ BIMResult bim_prepared(const BIMSurface& sa, const BIMSurface& sb, const BIMOpti
     return out;
   // Sec. 6.2 blends maps that share two correspondences without a conflict; with 3 features on a
   // surface no two maps do, and the map is one Moebius map, exact only near its triple (the
-  // paper's glasses, Fig. 14). So BIM runs again with spread samples added, guided by that map's
-  // triple as by landmarks ("Landmarks among the feature points": the triple goes only to its
-  // partner, which keeps the spread samples from building a consistent wrong group).
-  const bool ba = opt.symmetric && out.AB.from_reverse;  // the deciding direction's map
-  const BIMDirectionResult& d = ba ? out.BA : out.AB;
-  if (d.selected.empty()) return out;
-  const std::array<int, 3> ta = ba ? d.selected[0].target : d.selected[0].source,
-                           tb = ba ? d.selected[0].source : d.selected[0].target;
-  BIMOptions o = opt;
-  o.landmarks_A.assign(ta.begin(), ta.end());
-  o.landmarks_B.assign(tb.begin(), tb.end());
-  o.landmark_feature_points = true;
-  o.landmark_agreement = opt.blend_agreement;
-  o.max_candidates = std::min(opt.max_candidates, kBlendRetryMaxCandidates);
-  BIMResult again = bim_prepared_once(anchored_spread_features(sa, ta, k), anchored_spread_features(sb, tb, k), o,
-                                      progress, false);
-  // Kept when it is a blend and more confident than the single map (Sec. 6.2's own criterion,
-  // of the direction that decides).
+  // paper's glasses, Fig. 14). So BIM runs again with spread samples added, guided by a single
+  // map's triple as by landmarks ("Landmarks among the feature points": the triple goes only to
+  // its partner, which keeps the spread samples from building a consistent wrong group); once
+  // for each of the most confident single maps, since the best one's triple can be a symmetric
+  // flip of the right one.
   auto decider_confidence = [&](const BIMResult& r) {
     return opt.symmetric && r.AB.from_reverse ? r.BA.integrated_confidence : r.AB.integrated_confidence;
   };
-  const bool keep = again.AB.num_consistent_pairs > 0 && decider_confidence(again) > decider_confidence(out);
-  BIMResult& kept = keep ? again : out;
-  kept.blend_retry_confidence = decider_confidence(again);
-  kept.total_seconds = out.total_seconds + again.total_seconds;
-  if (!keep) {  // the second run's stages still count
-    for (const auto& t : again.timings) out.timings.push_back({"blend_retry/" + t.first, t.second});
+  const auto triples = guiding_triples(out, opt.symmetric && out.AB.from_reverse, std::max(1, opt.blend_retry_triples));
+  BIMOptions o = opt;
+  o.landmark_feature_points = true;
+  o.landmark_agreement = opt.blend_agreement;
+  o.max_candidates = std::min(opt.max_candidates, kBlendRetryMaxCandidates);
+  BIMResult best;
+  double best_confidence = -1;
+  int best_rank = -1;
+  std::vector<std::pair<std::string, double>> retry_timings;
+  double retry_seconds = 0;
+  for (size_t t = 0; t < triples.size(); ++t) {
+    const auto& [ta, tb] = triples[t];
+    o.landmarks_A.assign(ta.begin(), ta.end());
+    o.landmarks_B.assign(tb.begin(), tb.end());
+    BIMResult again = bim_prepared_once(anchored_spread_features(sa, ta, k), anchored_spread_features(sb, tb, k), o,
+                                        progress, false);
+    retry_seconds += again.total_seconds;
+    const std::string tag = t == 0 ? "blend_retry/" : "blend_retry" + std::to_string(t) + "/";
+    for (const auto& s : again.timings) retry_timings.push_back({tag + s.first, s.second});
+    // A blend, and the most confident one so far (Sec. 6.2's own criterion, of the direction
+    // that decides).
+    if (again.AB.num_consistent_pairs > 0 && decider_confidence(again) > best_confidence) {
+      best_confidence = decider_confidence(again);
+      best_rank = int(t);
+      best = std::move(again);
+    }
+  }
+  // Kept when more confident than the single map.
+  const bool keep = best_rank >= 0 && best_confidence > decider_confidence(out);
+  BIMResult& kept = keep ? best : out;
+  kept.blend_retry_confidence = std::max(best_confidence, 0.0);
+  kept.blend_retry_runs = int(triples.size());
+  kept.total_seconds = out.total_seconds + retry_seconds;
+  if (!keep) {  // the second runs' stages still count
+    out.timings.insert(out.timings.end(), retry_timings.begin(), retry_timings.end());
     return out;
   }
-  again.blend_retry_features_A = int(sa.features.size());
-  again.blend_retry_features_B = int(sb.features.size());
-  again.timings.insert(again.timings.begin(), out.timings.begin(), out.timings.end());
-  return again;
+  best.blend_retry_rank = best_rank;
+  best.blend_retry_features_A = int(sa.features.size());
+  best.blend_retry_features_B = int(sb.features.size());
+  std::vector<std::pair<std::string, double>> timings = out.timings;
+  timings.insert(timings.end(), retry_timings.begin(), retry_timings.end());
+  best.timings = std::move(timings);
+  return best;
 }
 
 }  // namespace shapemap

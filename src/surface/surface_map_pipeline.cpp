@@ -163,22 +163,34 @@ BIMResult bim_for_request(const TriMesh& RA, const TriMesh& RB, const SurfaceMap
   // Sec. 6.2 blends maps that share two correspondences without a conflict; with 3 features on
   // a surface no two maps do (each uses all three), so the map is one Moebius map. The paper's
   // glasses fail this way (Fig. 14, "long, thin parts"); so do SHREC'07's glasses 41 -> 44 here.
+  auto found = [&](std::size_t a, std::size_t b) {
+    return "surface-map: note: BIM found " + std::to_string(a) + " feature points on " + o.name_A + ", " +
+           std::to_string(b) + " on " + o.name_B + ": ";
+  };
+  const std::string runs = std::to_string(r.blend_retry_runs) + (r.blend_retry_runs == 1 ? " run" : " runs");
   if (r.blend_retry_features_A > 0)
-    notes.push_back("surface-map: note: BIM found " + std::to_string(r.blend_retry_features_A) + " feature points on " +
-                    o.name_A + ", " + std::to_string(r.blend_retry_features_B) + " on " + o.name_B +
-                    ": no two candidate maps could be blended (Sec. 6.2), so it ran again with evenly spread "
-                    "samples added up to " + std::to_string(o.blend_min_features) + " a side, guided by the single "
-                    "map's triple: a blend of " + std::to_string(r.AB.selected.size()) +
+    notes.push_back(found(r.blend_retry_features_A, r.blend_retry_features_B) +
+                    "no two candidate maps could be blended (Sec. 6.2), so it ran again with evenly spread "
+                    "samples added up to " + std::to_string(o.blend_min_features) + " a side, guided by " +
+                    (r.blend_retry_runs == 1 ? std::string("the single map's triple")
+                                             : "the triples of its " + std::to_string(r.blend_retry_runs) +
+                                                   " most confident single maps, one run each (that of single map " +
+                                                   std::to_string(r.blend_retry_rank + 1) + " kept)") +
+                    ": a blend of " + std::to_string(r.AB.selected.size()) +
                     " maps, more confident (--blend-features 0 keeps the single Moebius map)");
   else if (o.landmarks_A.empty() && r.AB.num_consistent_pairs == 0)
-    notes.push_back("surface-map: note: BIM found " + std::to_string(r.features_A.size()) + " feature points on " + o.name_A + ", " +
-                    std::to_string(r.features_B.size()) + " on " + o.name_B +
-                    ": no two candidate maps share two correspondences without a conflict, so the map is a "
+    notes.push_back(found(r.features_A.size(), r.features_B.size()) +
+                    "no two candidate maps share two correspondences without a conflict, so the map is a "
                     "single Moebius map, not a blend (Sec. 6.2); shapes with long thin parts map poorly so "
                     "(--landmarks may help)" +
-                    (r.blend_retry_confidence > 0 ? "; a second run with spread samples, guided by its triple, was "
-                                                    "less confident (" + std::to_string(r.blend_retry_confidence) + ")"
-                                                  : std::string()));
+                    (r.blend_retry_runs == 0 ? std::string()
+                     : r.blend_retry_confidence > 0
+                         ? "; a second run with spread samples, guided by " +
+                               (r.blend_retry_runs == 1 ? std::string("its triple")
+                                                        : "the triples of the " + std::to_string(r.blend_retry_runs) +
+                                                              " most confident single maps") +
+                               ", was less confident (" + std::to_string(r.blend_retry_confidence) + ")"
+                         : "; a second run with spread samples (" + runs + ") gave no blend"));
   return r;
 }
 
@@ -203,7 +215,7 @@ void run_bim(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& req, c
                      {"eigenvalue_fraction", o.eigenvalue_fraction},
                      {"entry_fraction", o.entry_fraction}, {"feature_radius", o.feature_radius},
                      {"min_features", o.min_features},     {"blend_min_features", o.blend_min_features},
-                     {"blend_agreement", o.blend_agreement},
+                     {"blend_agreement", o.blend_agreement}, {"blend_triples", o.blend_retry_triples},
                      {"symmetric", o.symmetric}, {"reverse_candidates", o.reverse_candidates}};
   // BIM's own output (Sec. 5): candidates, consistency spectrum, selected maps, stages.
   nlohmann::json bim;
@@ -211,9 +223,10 @@ void run_bim(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& req, c
   bim["features_B"] = r.features_B;
   bim["seed"] = r.seed;
   bim["seed_retries"] = r.seed_retries;  // > 0: no candidate map with the given seed
-  if (r.blend_retry_confidence > 0)  // none of the first features' maps could be blended: the second run
+  if (r.blend_retry_runs > 0)  // none of the first features' maps could be blended: the second runs
     bim["blend_retry"] = {{"kept", r.blend_retry_features_A > 0}, {"confidence", r.blend_retry_confidence},
-                          {"features_A", r.blend_retry_features_A}, {"features_B", r.blend_retry_features_B}};
+                          {"features_A", r.blend_retry_features_A}, {"features_B", r.blend_retry_features_B},
+                          {"runs", r.blend_retry_runs}, {"guided_by_rank", r.blend_retry_rank}};
   bim["AB"] = direction_json(r.AB);
   if (req.symmetric) bim["BA"] = direction_json(r.BA);
   nlohmann::json stages = nlohmann::json::object();

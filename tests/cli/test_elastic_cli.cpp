@@ -254,9 +254,21 @@ TEST(BimCli, MinFeaturesAndFeatureRadiusReachBim) {
   const bool kept = retry["bim"]["blend_retry"]["kept"].get<bool>();
   EXPECT_EQ(retry["bim"]["features_A"].size(), kept ? 12u : 3u);
   EXPECT_NE(shapemap::testing::slurp(t.p("retry.err")).find(kept ? "ran again" : "less confident"), std::string::npos);
+  // Once, guided by the best single map's triple; with --blend-triples 3 once for each of the 3
+  // most confident single maps' distinct triples.
+  EXPECT_EQ(retry["bim"]["blend_retry"]["runs"].get<int>(), 1);
+  EXPECT_EQ(retry["parameters"]["blend_triples"].get<int>(), 1);
+  ASSERT_EQ(noisy(" -o " + t.p("triples") + fast + " --feature-radius 5 --blend-triples 3", t.p("triples.err")), 0);
+  const nlohmann::json triples = read_json(t.dir / "triples" / "report.json");
+  EXPECT_EQ(triples["parameters"]["blend_triples"].get<int>(), 3);
+  EXPECT_GE(triples["bim"]["blend_retry"]["runs"].get<int>(), 2);
+  EXPECT_LE(triples["bim"]["blend_retry"]["runs"].get<int>(), 3);
+  EXPECT_GE(triples["bim"]["blend_retry"]["confidence"].get<double>(),
+            retry["bim"]["blend_retry"]["confidence"].get<double>());
   EXPECT_EQ(many["bim"]["features_A"].size(), 7u);
   EXPECT_EQ(many["bim"]["features_B"].size(), 7u);
   EXPECT_EQ(run("surface-map " + A + " " + B + " -o " + t.p("bad") + fast + " --min-features 2"), 2);
   EXPECT_EQ(run("surface-map " + A + " " + B + " -o " + t.p("bad") + fast + " --feature-radius 0"), 2);
+  EXPECT_EQ(run("surface-map " + A + " " + B + " -o " + t.p("bad") + fast + " --blend-triples 0"), 2);
   EXPECT_FALSE(fs::exists(t.dir / "bad"));
 }

@@ -300,3 +300,8 @@ def test_too_few_features_to_blend_runs_bim_again(surfaces):
     assert len(again.report["bim"]["features_A"]) == (12 if r["kept"] else 3)
     if r["kept"]:
         assert again.report["bim"]["AB"]["integrated_confidence"] > single.report["bim"]["AB"]["integrated_confidence"]
+    # blend_triples (`--blend-triples`): that run once for each of the most confident single maps.
+    assert r["runs"] == 1 and again.report["parameters"]["blend_triples"] == 1
+    more = shapemap.surface_map(VA, FA, VB, FB, blend_triples=3, **fast)
+    m = more.report["bim"]["blend_retry"]
+    assert 1 <= m["runs"] <= 3 and m["confidence"] >= r["confidence"]

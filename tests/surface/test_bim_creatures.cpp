@@ -284,3 +284,28 @@ TEST(BimCreatures, TooFewFeaturesToBlendAddSpreadSamples) {
   EXPECT_LT(cb.mean, 0.8 * cs.mean);  // measured 0.0541 against 0.0796
   EXPECT_GE(cb.within_0_1, 0.80);     // measured 0.855 against 0.721
 }
+
+// The second run guided by several single maps' triples (BIMOptions::blend_retry_triples): on the
+// seed-7 near-isometric pair with 3 maxima a side the best single map's triple is wrong, and the
+// blend it guides is wrong too; the blend guided by another single map's triple is more confident
+// and right (bench: BIM_MAX_FEATURES=3 BIM_BLEND_TRIPLES=3 build/tool_bim_bench quality).
+TEST(BimCreatures, AnotherSingleMapsTripleCanGuideTheSecondRun) {
+  GeneratedPair p = make_creature_pair(7, PairKind::NearIsometric, 2000);
+  BIMOptions o;
+  o.seed = 7;
+  o.max_features = 3;
+  const BIMResult one = blended_intrinsic_maps(p.A, p.B, o);
+  o.blend_retry_triples = 3;
+  const BIMResult three = blended_intrinsic_maps(p.A, p.B, o);
+  EXPECT_EQ(one.blend_retry_runs, 1);
+  EXPECT_EQ(three.blend_retry_runs, 3);
+  ASSERT_GT(three.blend_retry_features_A, 0);
+  EXPECT_GT(three.blend_retry_rank, 0);
+  EXPECT_GT(three.AB.integrated_confidence, one.AB.integrated_confidence);
+  const SurfaceErrorCurve c1 = surface_map_error(one.AB.map, p.truth_AB, p.B.V, p.B.F);
+  const SurfaceErrorCurve c3 = surface_map_error(three.AB.map, p.truth_AB, p.B.V, p.B.F);
+  std::printf("guided by the best single map: within 0.1 %.3f; by single map %d of 3: %.3f\n", c1.within_0_1,
+              three.blend_retry_rank + 1, c3.within_0_1);
+  EXPECT_LT(c1.within_0_1, 0.1);   // measured 0.022
+  EXPECT_GE(c3.within_0_1, 0.70);  // measured 0.748
+}

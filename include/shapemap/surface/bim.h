@@ -110,6 +110,11 @@ struct BIMOptions {
   // landmark_agreement, and keeps that blend when it is more confident. 0: off.
   int blend_min_features = 12;
   double blend_agreement = 1.0;
+  // The single maps whose triples guide such a run, one run each, the most confident first; the
+  // most confident blend of all is kept. 1 (the best single map's triple only) by default: on
+  // SHREC'07's glasses the blends guided by the right triple and by its symmetric flip score
+  // within 0.1% of each other, and the flip won (docs/methods.md, "Too few features to blend").
+  int blend_retry_triples = 1;
 };
 
 // A surface prepared for BIM (all in the normalized frame: unit area, area centroid at 0).
@@ -204,6 +209,7 @@ struct BIMDirectionResult {
   int num_eigenvectors_used = 0;    // within eigenvalue_fraction of the top
   std::vector<double> group_confidence;  // integrated confidence of each group's blend
   std::vector<int> group_sizes;
+  std::vector<BIMMapInfo> group_leads;  // each group's first map (its largest eigenvector entry)
   int selected_group = -1;         // the best of Sec. 6.2's groups (matching_search.kept: not the one output)
   bool from_reverse = false;        // the inverse of the other direction's blend (reverse_candidates)
   double own_integrated_confidence = 0;  // with from_reverse: this direction's own blend's
@@ -232,7 +238,9 @@ struct BIMResult {
   // > 0: the features each surface had when BIM found no two maps to blend, ran again with
   // options.blend_min_features a side and kept that blend (features_A / features_B are its).
   int blend_retry_features_A = 0, blend_retry_features_B = 0;
-  double blend_retry_confidence = 0;  // > 0: that second run's integrated confidence (kept or not)
+  double blend_retry_confidence = 0;  // > 0: the best second run's integrated confidence (kept or not)
+  int blend_retry_runs = 0;           // second runs made (one per guiding triple)
+  int blend_retry_rank = 0;           // kept: the rank of the single map whose triple guided it (0: the best)
   std::vector<std::pair<std::string, double>> timings;  // per stage, seconds
   double total_seconds = 0;
 };
