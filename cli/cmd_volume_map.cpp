@@ -74,14 +74,6 @@ std::vector<int> volume_landmarks(const std::string& file, const VolumeInput& in
   return read_landmarks(file, in.mesh.V, cand);
 }
 
-// Whether landmarks would give the landmark initialization a flat start: Sec. 5.1 sends every
-// vertex to its nearest landmark's partner, so with fewer than 4 distinct pairs the initial X
-// lies in a plane and every tet is degenerate (airplane -> bird's 3 landmarks: docs/methods.md).
-bool flat_landmark_start(std::vector<int> LA, std::vector<int> LB, const std::vector<std::string>& files) {
-  tidy_landmark_pairs(LA, LB, files[0], files[1]);
-  return LA.size() < 4;
-}
-
 // The initialization (--init, or its default) and the checks of the options that go with it.
 std::string choose_init(const VolumeMapArgs& a) {
   std::string init = a.init;
@@ -140,11 +132,9 @@ int run_volume_map_command(VolumeMapArgs& a, const GlobalOptions& g) {
   if (req.init == "landmarks" || (req.init == "auto" && !a.landmarks.empty())) {
     req.landmarks_A = volume_landmarks(a.landmarks[0], inA);
     req.landmarks_B = volume_landmarks(a.landmarks[1], inB);
-    if (a.init.empty() && flat_landmark_start(req.landmarks_A, req.landmarks_B, a.landmarks)) {
+    if (a.init.empty() && flat_landmark_start(req.landmarks_A, req.landmarks_B)) {
       req.init = "auto";
-      info(g, "volume-map: note: fewer than 4 distinct landmark pairs: the landmark initialization (Sec. 5.1) "
-              "would put every vertex on one of them, a flat start; they guide --init auto instead "
-              "(--init landmarks forces it; docs/methods.md, \"Few landmarks: the automatic start guided by them\")");
+      info(g, kFlatLandmarkStartNote);
     }
   }
   if (req.init == "surface-map" && a.surface_map_meshes.size() == 2) {

@@ -185,7 +185,11 @@ VolumeInput volume_input(const RowMatrixXd& V, const RowMatrixXi& E, const std::
 py::dict volume_map(const RowMatrixXd& VA, const RowMatrixXi& EA, const RowMatrixXd& VB, const RowMatrixXi& EB,
                     const py::dict& o, py::object progress) {
   VolumeMapRequest req;
-  req.init = o["init"].cast<std::string>();
+  const bool default_init = o["init"].is_none();  // as volume-map without --init
+  req.init = default_init ? (!o["landmarks"].is_none()      ? "landmarks"
+                             : !o["surface_map"].is_none() ? "surface-map"
+                                                           : "auto")
+                          : o["init"].cast<std::string>();
   req.auto_surface = o["auto_surface_map"].cast<std::string>();
   req.auto_reverse_candidates = o["reverse_candidates"].cast<bool>();
   req.boundary_stage = o["boundary_fixed_stage"].cast<std::string>();
@@ -208,7 +212,10 @@ py::dict volume_map(const RowMatrixXd& VA, const RowMatrixXi& EA, const RowMatri
     auto B = std::make_shared<VolumeInput>(volume_input(VB, EB, names.second, o, cb));
     req.landmarks_A = carry_landmarks_to_volume(*A, la);
     req.landmarks_B = carry_landmarks_to_volume(*B, lb);
+    const bool flat = default_init && req.init == "landmarks" && flat_landmark_start(req.landmarks_A, req.landmarks_B);
+    if (flat) req.init = "auto";
     VolumeMapRun r = run_volume_map(*A, *B, req, cb);
+    if (flat) r.notes.insert(r.notes.begin(), kFlatLandmarkStartNote);
     return std::make_tuple(A, B, std::move(r));
   });
   auto& [A, B, r] = run;

@@ -214,16 +214,19 @@ def surface_map(VA, FA, VB, FB, method="bim", landmarks=None, init=None, init_re
     return _pair(r["AB"], r["BA"], (VA, FA), (VB, FB), json.loads(r["report"]))
 
 
-def volume_map(VA, TA, VB, TB, init="auto", landmarks=None, surface_map=None, tets=0, auto_surface_map="elastic",
+def volume_map(VA, TA, VB, TB, init=None, landmarks=None, surface_map=None, tets=0, auto_surface_map="elastic",
                reverse_candidates=True, alpha=None, gamma=None, beta_start=None, beta_end=None, max_iterations=None, solver="newton",
                boundary_fixed_stage="auto", interior_init="closest", land_on_target=True, seed=1, threads=0, strict=False, names=("A", "B"),
                progress=None):
     """Symmetric volume map (`shapemap volume-map`) between two tet meshes (T: m x 4), or two
     closed surfaces (m x 3: tetrahedralized first, about `tets` tets).
 
-    init: "auto" (surface map by BIM + elastic), "landmarks" ((LA, LB) vertex lists; of the
-    surfaces for surface inputs), "ball" (registration through ball maps) or "surface-map"
-    (surface_map=(map_AB, map_BA) between the boundary or input surfaces). interior_init:
+    init: "auto" (surface map by BIM + elastic; guided by landmarks when given), "landmarks"
+    ((LA, LB) vertex lists; of the surfaces for surface inputs), "ball" (registration through
+    ball maps) or "surface-map" (surface_map=(map_AB, map_BA) between the boundary or input
+    surfaces); None (the default, as `volume-map` without --init): "landmarks" when landmarks
+    are given ("auto" guided by them when fewer than 4 distinct pairs, whose landmark start is
+    flat; a note says so), "surface-map" when surface_map is, else "auto". interior_init:
     "closest" (Sec. 5.1) or "harmonic" (the boundary's images extended harmonically).
     reverse_candidates (init "auto" without landmarks): the less confident BIM direction takes the
     inverse of the other's blend, as surface_map does (False: each direction's own blend). Returns a Map

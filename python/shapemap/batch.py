@@ -212,9 +212,8 @@ def _compute(job, shapeA, shapeB):
         return m, (VA, FA), (VB, FB), "surface"
     (VA, TA), (VB, TB) = shapeA["mesh"], shapeB["mesh"]
     if o["method"] == "volume":
-        # As volume-map's default: fewer than 4 distinct pairs would give the landmark start a flat X.
-        flat = lm is not None and len(set(zip(lm[0], lm[1]))) < 4
-        m = shapemap.volume_map(VA, TA, VB, TB, init="landmarks" if lm and not flat else "auto", landmarks=lm,
+        # volume-map's default initialization (landmarks, or auto guided by fewer than 4 pairs).
+        m = shapemap.volume_map(VA, TA, VB, TB, landmarks=lm,
                                 seed=o["seed"], threads=o["threads"], names=(job["pathA"], job["pathB"]))
     else:
         m = shapemap.register(VA, TA, VB, TB, threads=o["threads"])

@@ -152,23 +152,39 @@ def _boundary_vertices(T):
     return np.unique(u[c == 1])
 
 
-def test_cli_and_module_same_volume_map(cli, pair, tmp_path):
+def _pair_landmarks(pair, n):
+    """n boundary vertices of A and the boundary vertices of B nearest their true images."""
     VA, TA = shapemap.read_volume(pair / "A.vtk")
     VB, TB = shapemap.read_volume(pair / "B.vtk")
-    # Landmarks: 8 boundary vertices of A and the boundary vertices of B nearest their true images.
     bA, bB = _boundary_vertices(TA), _boundary_vertices(TB)
-    LA = bA[:: len(bA) // 8][:8]
+    LA = bA[:: len(bA) // n][:n]
     P = shapemap.read_map(pair / "truth_vol_AB.txt", VB, TB).points()[LA]
     LB = bB[((P[:, None, :] - VB[bB][None, :, :]) ** 2).sum(axis=2).argmin(axis=1)]
+    return (VA, TA), (VB, TB), LA, LB
+
+
+def test_cli_and_module_same_volume_map(cli, pair, tmp_path):
+    (VA, TA), (VB, TB), LA, LB = _pair_landmarks(pair, 8)
     np.savetxt(tmp_path / "LA.txt", LA, fmt="%d")
     np.savetxt(tmp_path / "LB.txt", LB, fmt="%d")
     cli("--seed", 1, "volume-map", pair / "A.vtk", pair / "B.vtk", "--landmarks", tmp_path / "LA.txt",
         tmp_path / "LB.txt", "--max-iterations", 3, "-o", tmp_path / "out")
-    m = shapemap.volume_map(VA, TA, VB, TB, init="landmarks", landmarks=(LA, LB), max_iterations=3, seed=1)
+    # The same default initialization: landmarks when given.
+    m = shapemap.volume_map(VA, TA, VB, TB, landmarks=(LA, LB), max_iterations=3, seed=1)
+    assert m.report["parameters"]["init"].startswith("landmarks"), m.report["parameters"]["init"]
     shapemap.write_map(tmp_path / "py_AB.txt", m)
     shapemap.write_map(tmp_path / "py_BA.txt", m.reverse)
     for d in ("AB", "BA"):
         assert (tmp_path / "out" / f"map_{d}.txt").read_text() == (tmp_path / f"py_{d}.txt").read_text(), d
+
+
+def test_few_landmarks_guide_the_automatic_start_by_default(pair):
+    """As volume-map without --init: fewer than 4 distinct landmark pairs would give the landmark
+    initialization a flat start, so they guide the automatic one, and a note says so."""
+    (VA, TA), (VB, TB), LA, LB = _pair_landmarks(pair, 3)
+    m = shapemap.volume_map(VA, TA, VB, TB, landmarks=(LA, LB), auto_surface_map="bim", max_iterations=1)
+    assert m.report["parameters"]["init"].startswith("auto (BIM guided by landmarks"), m.report["parameters"]["init"]
+    assert any("fewer than 4 distinct landmark pairs" in n for n in m.report["notes"])
 
 
 def test_prepared_surfaces_give_the_same_map(surfaces, bim):

@@ -42,6 +42,14 @@ VolumeInput volume_input_from_surface(const TriMesh& given, const std::string& n
 // numberings differ). For a tet-mesh input the indices are returned as they are.
 std::vector<int> carry_landmarks_to_volume(const VolumeInput& in, const std::vector<int>& landmarks);
 
+// Whether landmarks would give the landmark initialization a flat start: Sec. 5.1 sends every
+// vertex to its nearest landmark's partner, so with fewer than 4 distinct pairs the initial X
+// lies in a plane and every tet is degenerate (airplane -> bird's 3 landmarks: docs/methods.md).
+// The default initialization with landmarks is then auto guided by them, with this note
+// (`volume-map` without --init, Python's volume_map without init).
+bool flat_landmark_start(std::vector<int> LA, std::vector<int> LB);
+extern const char* const kFlatLandmarkStartNote;
+
 struct VolumeMapRequest {
   std::string init = "auto";          // auto | landmarks | ball | surface-map (Sec. 5.1)
   std::string auto_surface = "elastic";  // init auto: bim, or bim + elastic refinement
