@@ -248,7 +248,7 @@ void add_energy_weight_options(CLI::App* app, VolumeMapArgs& a) {
                     "default -1: gamma constant, Sec. 5.5)")
       ->capture_default_str();
   app->add_option("--backward-projection-scale", a.opt.backward_projection_scale,
-                    "Eq. 23: E_P = E_P,f + scale E_P,b (paper: 1; the authors' code: 10)")
+                    "Eq. 23: E_P = E_P,f + scale E_P,b (ours 2, tuned on real pairs; paper: 1; the authors' code: 10)")
       ->check(non_negative())
       ->capture_default_str();
 }
