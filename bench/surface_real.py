@@ -98,6 +98,7 @@ def file_hash(path):
 class Runner:
     def __init__(self, build, work, threads):
         self.bin = os.path.join(build, "shapemap")
+        self.pydir = os.path.join(build, "python")  # the shapemap module (the glasses' arms)
         self.log = open(os.path.join(work, "log.txt"), "a")
         self.glob = ["--quiet"] + (["--threads", str(threads)] if threads is not None else [])
 
@@ -144,39 +145,17 @@ def evaluate(r, A, B, out, landmarks):
     return m
 
 
-def read_off_vertices(path):
-    import numpy as np
-    words = open(path).read().split()
-    n = int(words[1])
-    return np.array(words[4:4 + 3 * n], dtype=float).reshape(n, 3)
-
-
-def map_points(path, V, F):
-    """The points a map file (shapemap-map rows: target face, 3 barycentric coordinates) gives."""
-    import numpy as np
-    rows = [l.split() for l in open(path) if l.strip() and not l.startswith("#")][1:]
-    a = np.array(rows, dtype=float)
-    return np.einsum("ij,ijk->ik", a[:, 1:4], V[F[a[:, 0].astype(int)]])
-
-
-def read_off_faces(path):
-    import numpy as np
-    words = open(path).read().split()
-    n, m = int(words[1]), int(words[2])
-    f = np.array(words[4 + 3 * n:4 + 3 * n + 4 * m], dtype=int).reshape(m, 4)
-    return f[:, 1:]
-
-
-def glasses_arms(A, B, out):
+def glasses_arms(pydir, A, B, out):
     """Where the arms land, SHREC'07 glasses 41 -> 44: 41's arms run along +y (y > 0.3), 44's along
     -z (z < -0.4); both face the same way (up is +z on 41, +y on 44: the rotation that takes one
     pair of arms onto the other keeps x), so an arm's side is the sign of x on both. Per arm and
     direction, the fraction of its vertices whose image is on the other glasses' arm of the same
     side; returns the smallest of the four."""
-    VA, VB = read_off_vertices(A), read_off_vertices(B)
-    FA, FB = read_off_faces(A), read_off_faces(B)
-    P = map_points(os.path.join(out, "map_AB.txt"), VB, FB)
-    Q = map_points(os.path.join(out, "map_BA.txt"), VA, FA)
+    sys.path.insert(0, pydir)
+    import shapemap
+    (VA, FA), (VB, FB) = shapemap.read_surface(A), shapemap.read_surface(B)
+    P = shapemap.read_map(os.path.join(out, "map_AB.txt"), VB, FB).points()
+    Q = shapemap.read_map(os.path.join(out, "map_BA.txt"), VA, FA).points()
     arm_A, arm_B = VA[:, 1] > 0.3, VB[:, 2] < -0.4
     on_B, on_A = lambda X: X[:, 2] < -0.3, lambda X: X[:, 1] > 0.2
     worst = 1.0
@@ -220,7 +199,7 @@ def run_pair(r, data, work, name, binhash, fresh, any_binary, extra):
             if row["metrics"] is None:
                 row["exit_code"] = "evaluate failed"  # the maps exist: elastic still runs
             elif name == "glasses":
-                row["arms_on_their_own_arm"] = glasses_arms(A, B, out)
+                row["arms_on_their_own_arm"] = glasses_arms(r.pydir, A, B, out)
         print("bench: %s %s: exit %s, %.1f s" % (name, method, code, wall), file=sys.stderr)
         os.makedirs(out, exist_ok=True)
         json.dump(row, open(cache, "w"), indent=1)
