@@ -9,9 +9,13 @@ Pairs (they read ../shared/data, or $SHAPEMAP_DATA; skipped when it is absent):
   glasses         shrec07-41 -> shrec07-44 (the volume bench's pair), no landmarks: scored by
                   reversibility, distortion and where each arm lands (BIM's symmetric flip
                   sends an arm to the other side: docs/methods.md, "Too few features to blend")
-  busts           shrec07-302 -> shrec07-314 (the volume bench's pair), no ground truth
+  busts           shrec07-302 -> shrec07-314 (the volume bench's pair), no ground truth: scored
+                  also by whether heads stay up (BIM maps them upside down: docs/methods.md,
+                  "The busts: upside down")
+  busts-landmarks the busts, BIM and elastic guided by 4 landmarks the bench places
+                  (bench/landmarks/README.md), scored as busts
 --pairs takes names and these groups: camel-01 (01 -> 02..10, 9 pairs), camel-all (the 45
-pairs II < JJ), all (cat-lion, airplane-bird, glasses, busts and camel-all). Default:
+pairs II < JJ), all (cat-lion, airplane-bird, glasses, busts, busts-landmarks and camel-all). Default:
 cat-lion, airplane-bird, camel-01.
 
 Per pair: `surface-map A B --method bim --symmetric`, then `surface-map A B --method elastic
@@ -53,7 +57,11 @@ FIXED = {
 NO_TRUTH = {
     "glasses": ("shrec07-41", "shrec07-44", False),
     "busts": ("shrec07-302", "shrec07-314", False),
+    "busts-landmarks": ("shrec07-302", "shrec07-314", False),
 }
+# Pairs whose BIM (and elastic) runs are guided by landmarks the bench places itself
+# (bench/landmarks/README.md); scored without them, as the pair without landmarks is.
+GUIDES = {"busts-landmarks": os.path.join(ROOT, "bench", "landmarks")}
 
 
 def expand_pairs(spec):
@@ -166,11 +174,40 @@ def glasses_arms(pydir, A, B, out):
     return worst
 
 
+def heads_up(VA, VB, P, Q):
+    """Whether a map between two upright shapes (+y up) keeps heads up: of the top 15% of each
+    shape's height and of its bottom 15%, the fraction of vertices whose image (P: A's vertices on
+    B, Q: B's on A) lies in the same half of the other's height; the smallest of the four (two
+    regions, two directions). Also read by bench/volume_map_real.py for the busts' tet meshes."""
+    def height(V, y):  # 0 at the bottom of V, 1 at its top
+        return (y - V[:, 1].min()) / (V[:, 1].max() - V[:, 1].min())
+
+    worst = 1.0
+    for V, W, X in ((VA, VB, P), (VB, VA, Q)):
+        h, hx = height(V, V[:, 1]), height(W, X[:, 1])
+        worst = min(worst, float((hx[h > 0.85] > 0.5).mean()), float((hx[h < 0.15] < 0.5).mean()))
+    return worst
+
+
+def busts_heads_up(pydir, A, B, out):
+    """heads_up of OUT's maps between SHREC'07 busts 302 and 314, both upright along +y with the
+    head on top. BIM's maps without landmarks put one bust's head on the other's base
+    (docs/methods.md, "The busts: upside down")."""
+    sys.path.insert(0, pydir)
+    import shapemap
+    (VA, FA), (VB, FB) = shapemap.read_surface(A), shapemap.read_surface(B)
+    P = shapemap.read_map(os.path.join(out, "map_AB.txt"), VB, FB).points()
+    Q = shapemap.read_map(os.path.join(out, "map_BA.txt"), VA, FA).points()
+    return heads_up(VA, VB, P, Q)
+
+
 def run_pair(r, data, work, name, binhash, fresh, any_binary, extra):
     """BIM then elastic on one pair (each cached); list of rows."""
     a, b, has_lm = pair_files(name)
     A, B = os.path.join(data, a + ".off"), os.path.join(data, b + ".off")
     lm = (os.path.join(data, a + ".landmarks"), os.path.join(data, b + ".landmarks")) if has_lm else None
+    guide = (["--landmarks", os.path.join(GUIDES[name], a + ".landmarks"), os.path.join(GUIDES[name], b + ".landmarks")]
+             if name in GUIDES else [])
     rows = []
     for method in ("bim", "elastic"):
         out = os.path.join(work, name, method)
@@ -178,16 +215,19 @@ def run_pair(r, data, work, name, binhash, fresh, any_binary, extra):
         if not fresh and os.path.exists(cache):
             row = json.load(open(cache))
             if row.get("binary") == binhash or any_binary:
+                if name.startswith("busts") and row.get("exit_code") == 0 and "heads_up" not in row:
+                    row["heads_up"] = busts_heads_up(r.pydir, A, B, out)  # a row cached before the check
+                    json.dump(row, open(cache, "w"), indent=1)
                 rows.append(row)
                 continue
         if method == "bim":
-            args = ["surface-map", A, B, "-o", out, "--method", "bim", "--symmetric"] + extra
+            args = ["surface-map", A, B, "-o", out, "--method", "bim", "--symmetric"] + guide + extra
         else:
             if not os.path.exists(os.path.join(work, name, "bim", "map_BA.txt")):
                 rows.append({"pair": name, "method": method, "exit_code": None, "binary": binhash})
                 continue
             args = ["surface-map", A, B, "-o", out, "--method", "elastic", "--init",
-                    os.path.join(work, name, "bim")] + extra
+                    os.path.join(work, name, "bim")] + guide + extra
         code, wall = r.run(args)
         row = {"pair": name, "method": method, "exit_code": code, "wall": wall, "binary": binhash}
         if code == 0:
@@ -200,6 +240,8 @@ def run_pair(r, data, work, name, binhash, fresh, any_binary, extra):
                 row["exit_code"] = "evaluate failed"  # the maps exist: elastic still runs
             elif name == "glasses":
                 row["arms_on_their_own_arm"] = glasses_arms(r.pydir, A, B, out)
+            elif name.startswith("busts"):
+                row["heads_up"] = busts_heads_up(r.pydir, A, B, out)
         print("bench: %s %s: exit %s, %.1f s" % (name, method, code, wall), file=sys.stderr)
         os.makedirs(out, exist_ok=True)
         json.dump(row, open(cache, "w"), indent=1)
@@ -321,6 +363,12 @@ def targets(rows):
                 f = row.get("arms_on_their_own_arm")
                 checks.append(("glasses %s: each arm onto its own arm (>= 90%% of its vertices, both directions)" % m,
                                f is not None and f >= 0.9, "worst arm %s" % ("–" if f is None else "%.0f%%" % (100 * f))))
+        if p.startswith("busts"):
+            for m, row in (("BIM", b), ("elastic", e)):
+                f = row.get("heads_up")
+                checks.append(("%s %s: heads up (>= 90%% of each bust's top and bottom 15%% in the same half of the "
+                               "other, both directions)" % (p, m), f is not None and f >= 0.9,
+                               "worst %s" % ("–" if f is None else "%.0f%%" % (100 * f))))
     if ok(by.get(("airplane-bird", "bim"))) and ok(by.get(("airplane-bird", "elastic"))):
         b, e = by[("airplane-bird", "bim")]["metrics"], by[("airplane-bird", "elastic")]["metrics"]
         for d in ("AB", "BA"):

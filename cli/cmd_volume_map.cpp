@@ -132,9 +132,9 @@ int run_volume_map_command(VolumeMapArgs& a, const GlobalOptions& g) {
   if (req.init == "landmarks" || (req.init == "auto" && !a.landmarks.empty())) {
     req.landmarks_A = volume_landmarks(a.landmarks[0], inA);
     req.landmarks_B = volume_landmarks(a.landmarks[1], inB);
-    if (a.init.empty() && flat_landmark_start(req.landmarks_A, req.landmarks_B)) {
+    if (a.init.empty() && sparse_landmark_start(req.landmarks_A, req.landmarks_B)) {
       req.init = "auto";
-      info(g, kFlatLandmarkStartNote);
+      info(g, sparse_landmark_start_note());
     }
   }
   if (req.init == "surface-map" && a.surface_map_meshes.size() == 2) {
@@ -198,8 +198,8 @@ void add_initialization_options(CLI::App* app, VolumeMapArgs& a) {
   app->add_option("--init", a.init, "Initialization: auto (surface map by BIM + elastic), "
                                        "ball (registration through ball maps, both ways), "
                                        "landmarks, surface-map (default: landmarks if given, auto guided by "
-                                       "them when fewer than 4 distinct pairs, else surface-map "
-                                       "if given, else auto)")
+                                       "them when fewer than " + std::to_string(kLandmarkStartMinPairs) +
+                                       " distinct pairs, else surface-map if given, else auto)")
       ->check(CLI::IsMember({"auto", "ball", "landmarks", "surface-map"}));
   app->add_option("--landmarks", a.landmarks, "Landmark files LA LB (vertex index or x y z per line): --init landmarks starts from them; with --init auto they "
                   "guide the surface map (BIM's candidates, anchors of the elastic refinement)")

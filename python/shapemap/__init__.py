@@ -225,8 +225,8 @@ def volume_map(VA, TA, VB, TB, init=None, landmarks=None, surface_map=None, tets
     ((LA, LB) vertex lists; of the surfaces for surface inputs), "ball" (registration through
     ball maps) or "surface-map" (surface_map=(map_AB, map_BA) between the boundary or input
     surfaces); None (the default, as `volume-map` without --init): "landmarks" when landmarks
-    are given ("auto" guided by them when fewer than 4 distinct pairs, whose landmark start is
-    flat; a note says so), "surface-map" when surface_map is, else "auto". interior_init:
+    are given ("auto" guided by them when fewer than 20 distinct pairs, too few for a good
+    landmark start; a note says so), "surface-map" when surface_map is, else "auto". interior_init:
     "closest" (Sec. 5.1) or "harmonic" (the boundary's images extended harmonically).
     reverse_candidates (init "auto" without landmarks): the less confident BIM direction takes the
     inverse of the other's blend, as surface_map does (False: each direction's own blend). Returns a Map

@@ -212,7 +212,7 @@ def _compute(job, shapeA, shapeB):
         return m, (VA, FA), (VB, FB), "surface"
     (VA, TA), (VB, TB) = shapeA["mesh"], shapeB["mesh"]
     if o["method"] == "volume":
-        # volume-map's default initialization (landmarks, or auto guided by fewer than 4 pairs).
+        # volume-map's default initialization (landmarks, or auto guided by fewer than 20 pairs).
         m = shapemap.volume_map(VA, TA, VB, TB, landmarks=lm,
                                 seed=o["seed"], threads=o["threads"], names=(job["pathA"], job["pathB"]))
     else:

@@ -78,15 +78,17 @@ VolumeInput volume_input_from_surface(const TriMesh& given, const std::string& n
   return in;
 }
 
-bool flat_landmark_start(std::vector<int> LA, std::vector<int> LB) {
+bool sparse_landmark_start(std::vector<int> LA, std::vector<int> LB) {
   tidy_landmark_pairs(LA, LB, "landmarks A", "landmarks B");  // its notes come with the run
-  return LA.size() < 4;
+  return int(LA.size()) < kLandmarkStartMinPairs;
 }
 
-const char* const kFlatLandmarkStartNote =
-    "volume-map: note: fewer than 4 distinct landmark pairs: the landmark initialization (Sec. 5.1) would put "
-    "every vertex on one of them, a flat start; they guide --init auto instead (--init landmarks forces it; "
-    "docs/methods.md, \"Few landmarks: the automatic start guided by them\")";
+std::string sparse_landmark_start_note() {
+  return "volume-map: note: fewer than " + std::to_string(kLandmarkStartMinPairs) +
+         " distinct landmark pairs: the landmark initialization (Sec. 5.1) would put every vertex on its nearest "
+         "landmark's partner, too coarse a start with so few; they guide --init auto instead (--init landmarks "
+         "forces it; docs/methods.md, \"Few landmarks: the automatic start guided by them\")";
+}
 
 std::vector<int> carry_landmarks_to_volume(const VolumeInput& in, const std::vector<int>& landmarks) {
   if (!in.from_surface) return landmarks;

@@ -59,7 +59,7 @@ double bent_box_error(const TetMesh& A, const Eigen::MatrixXd& X) {
 TEST(VolumeMapCli, LandmarkRunWritesAllOutputsAndEvaluates) {
   Files f;
   ASSERT_EQ(run("volume-map " + f.p("A.mesh") + " " + f.p("B.vtk") + " -o " + f.p("out") +
-                " --landmarks " + f.p("LA.txt") + " " + f.p("LB.txt") + " --max-iterations 10"),
+                " --init landmarks --landmarks " + f.p("LA.txt") + " " + f.p("LB.txt") + " --max-iterations 10"),
             0);
   for (const char* name : {"map_AB.txt", "map_BA.txt", "A_on_B.vtk", "B_on_A.vtk", "report.json"})
     EXPECT_TRUE(fs::exists(f.dir / "out" / name)) << name;
@@ -143,8 +143,9 @@ TEST(VolumeMapCli, AutoInitUsesTheLandmarks) {
                 f.p("L2a.txt") + " " + f.p("L2b.txt")),
             2);
   EXPECT_FALSE(fs::exists(f.dir / "auto2"));
-  // Three landmarks and no --init: the landmark initialization would be flat (every vertex on one of 3
-  // points), so they guide --init auto instead, with a note; --init landmarks still forces it.
+  // Three landmarks and no --init: the landmark initialization would start every vertex on one of 3
+  // points, so they guide --init auto instead (as with any count below 20), with a note; --init
+  // landmarks still forces it.
   {
     std::ifstream la(f.p("LA.txt")), lb(f.p("LB.txt"));
     std::ofstream a3(f.p("L3a.txt")), b3(f.p("L3b.txt"));
@@ -157,7 +158,7 @@ TEST(VolumeMapCli, AutoInitUsesTheLandmarks) {
                           f.p("B.vtk") + " -o " + f.p("auto3") + three + " > /dev/null 2> " + f.p("auto3.err");
   ASSERT_EQ(std::system(cmd.c_str()), 0);
   const std::string note = shapemap::testing::slurp(f.p("auto3.err"));
-  EXPECT_NE(note.find("fewer than 4 distinct landmark pairs"), std::string::npos) << note;
+  EXPECT_NE(note.find("fewer than 20 distinct landmark pairs"), std::string::npos) << note;
   const nlohmann::json r3 = nlohmann::json::parse(shapemap::testing::slurp(f.p("auto3/report.json")));
   const std::string init3 = r3["parameters"]["init"];
   EXPECT_EQ(init3.rfind("auto (BIM guided by landmarks", 0), 0u) << init3;
@@ -235,7 +236,8 @@ TEST(VolumeMapCli, SurfaceInputsWriteTheTetMeshesTheMapsIndex) {
     }
   }
   ASSERT_EQ(run("volume-map " + t.p("pair/A.obj") + " " + t.p("pair/B.obj") + " -o " + t.p("out") +
-                " --tets 1500 --landmarks " + t.p("LA.txt") + " " + t.p("LB.txt") + " --max-iterations 3"),
+                " --tets 1500 --init landmarks --landmarks " + t.p("LA.txt") + " " + t.p("LB.txt") +
+                " --max-iterations 3"),
             0);
   const TetMesh TA = read_volume(t.p("out/A.vtk")), TBm = read_volume(t.p("out/B.vtk"));
   EXPECT_GT(TA.num_tets(), 500);

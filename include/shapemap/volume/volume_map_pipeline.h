@@ -42,13 +42,16 @@ VolumeInput volume_input_from_surface(const TriMesh& given, const std::string& n
 // numberings differ). For a tet-mesh input the indices are returned as they are.
 std::vector<int> carry_landmarks_to_volume(const VolumeInput& in, const std::vector<int>& landmarks);
 
-// Whether landmarks would give the landmark initialization a flat start: Sec. 5.1 sends every
-// vertex to its nearest landmark's partner, so with fewer than 4 distinct pairs the initial X
-// lies in a plane and every tet is degenerate (airplane -> bird's 3 landmarks: docs/methods.md).
-// The default initialization with landmarks is then auto guided by them, with this note
-// (`volume-map` without --init, Python's volume_map without init).
-bool flat_landmark_start(std::vector<int> LA, std::vector<int> LB);
-extern const char* const kFlatLandmarkStartNote;
+// Whether landmarks are too few for the landmark initialization: Sec. 5.1 sends every vertex to
+// its nearest landmark's partner, a start made of as many points as there are landmarks, which
+// the optimization does not recover from with fewer than kLandmarkStartMinPairs distinct pairs
+// (cat -> lion with 4 to 16 of its 20 landmarks, the busts with 4, airplane -> bird with 3:
+// docs/methods.md, "Few landmarks: the automatic start guided by them"). The default
+// initialization with landmarks is then auto guided by them, with this note (`volume-map`
+// without --init, Python's volume_map without init).
+constexpr int kLandmarkStartMinPairs = 20;
+bool sparse_landmark_start(std::vector<int> LA, std::vector<int> LB);
+std::string sparse_landmark_start_note();
 
 struct VolumeMapRequest {
   std::string init = "auto";          // auto | landmarks | ball | surface-map (Sec. 5.1)
