@@ -132,7 +132,7 @@ int run_volume_map_command(VolumeMapArgs& a, const GlobalOptions& g) {
   if (req.init == "landmarks" || (req.init == "auto" && !a.landmarks.empty())) {
     req.landmarks_A = volume_landmarks(a.landmarks[0], inA);
     req.landmarks_B = volume_landmarks(a.landmarks[1], inB);
-    if (a.init.empty() && sparse_landmark_start(req.landmarks_A, req.landmarks_B)) {
+    if (a.init.empty() && sparse_landmark_start(req.landmarks_A, req.landmarks_B, inA, inB, req.strict)) {
       req.init = "auto";
       info(g, sparse_landmark_start_note());
     }

@@ -78,9 +78,26 @@ VolumeInput volume_input_from_surface(const TriMesh& given, const std::string& n
   return in;
 }
 
-bool sparse_landmark_start(std::vector<int> LA, std::vector<int> LB) {
+namespace {
+// Whether the automatic start can map this input: the surface surface_init would give BIM
+// (the repaired given surface, or the boundary after the safe repairs) is closed genus 0.
+bool automatic_start_can_map(const VolumeInput& in, bool strict) {
+  try {
+    std::vector<std::string> unused;
+    repaired_genus0(in.from_surface ? in.surface : boundary_surface(in.mesh).surface, in.name, strict, unused);
+    return true;
+  } catch (const InputError&) {
+    return false;
+  }
+}
+}  // namespace
+
+bool sparse_landmark_start(std::vector<int> LA, std::vector<int> LB, const VolumeInput& A, const VolumeInput& B,
+                           bool strict) {
   tidy_landmark_pairs(LA, LB, "landmarks A", "landmarks B");  // its notes come with the run
-  return int(LA.size()) < kLandmarkStartMinPairs;
+  if (LA.size() < 4) return true;
+  return int(LA.size()) < kLandmarkStartMinPairs && automatic_start_can_map(A, strict) &&
+         automatic_start_can_map(B, strict);
 }
 
 std::string sparse_landmark_start_note() {

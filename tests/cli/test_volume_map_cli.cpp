@@ -165,6 +165,53 @@ TEST(VolumeMapCli, AutoInitUsesTheLandmarks) {
   ASSERT_EQ(run("volume-map " + f.p("A.mesh") + " " + f.p("B.vtk") + " -o " + f.p("lm3") + " --init landmarks" + three), 0);
   const nlohmann::json l3 = nlohmann::json::parse(shapemap::testing::slurp(f.p("lm3/report.json")));
   EXPECT_EQ(l3["parameters"]["init"], "landmarks");
+  // The 8 corners without --init: fewer than 20 pairs on genus-0 boundaries, so the guided
+  // automatic start too.
+  ASSERT_EQ(run("volume-map " + f.p("A.mesh") + " " + f.p("B.vtk") + " -o " + f.p("auto8") + " --landmarks " +
+                f.p("LA.txt") + " " + f.p("LB.txt") + " --max-iterations 3"),
+            0);
+  const nlohmann::json r8 = nlohmann::json::parse(shapemap::testing::slurp(f.p("auto8/report.json")));
+  const std::string init8 = r8["parameters"]["init"];
+  EXPECT_EQ(init8.rfind("auto (BIM guided by landmarks", 0), 0u) << init8;
+}
+
+// From 4 landmark pairs the default start is the automatic one only where BIM can map the
+// boundaries: on a square ring of tets (its boundary a torus) 8 landmarks keep the landmark
+// start, without the note.
+TEST(VolumeMapCli, FewLandmarksOnARingKeepTheLandmarkStart) {
+  shapemap::testing::TempDir t("volmap_cli_ring");
+  const TetMesh box = test_volume::grid_box(6, 6, 1, 1.0, 1.0, 0.2);
+  TetMesh ring;  // the box without its 2 x 2 middle columns of cells, vertices renumbered
+  std::vector<int> id(box.V.rows(), -1);
+  std::vector<Eigen::RowVector4i> kept;
+  for (Eigen::Index k = 0; k < box.T.rows(); ++k) {
+    Eigen::RowVector3d c = Eigen::RowVector3d::Zero();
+    for (int q = 0; q < 4; ++q) c += box.V.row(box.T(k, q)) / 4.0;
+    if (std::abs(c(0) - 0.5) < 1.0 / 6 && std::abs(c(1) - 0.5) < 1.0 / 6) continue;
+    kept.push_back(box.T.row(k));
+    for (int q = 0; q < 4; ++q) id[box.T(k, q)] = 0;
+  }
+  int n = 0;
+  for (int& v : id)
+    if (v == 0) v = n++;
+  ring.V.resize(n, 3);
+  for (Eigen::Index v = 0; v < box.V.rows(); ++v)
+    if (id[v] >= 0) ring.V.row(id[v]) = box.V.row(v);
+  ring.T.resize(Eigen::Index(kept.size()), 4);
+  for (size_t k = 0; k < kept.size(); ++k)
+    for (int q = 0; q < 4; ++q) ring.T(Eigen::Index(k), q) = id[kept[k](q)];
+  write_volume(t.p("ring.vtk"), ring);
+  {
+    std::ofstream l(t.p("L.txt"));
+    for (int k = 0; k < 8; ++k) l << k * (n / 8) << "\n";
+  }
+  const std::string cmd = std::string(SHAPEMAP_BINARY) + " --threads 1 volume-map " + t.p("ring.vtk") + " " +
+                          t.p("ring.vtk") + " -o " + t.p("out") + " --landmarks " + t.p("L.txt") + " " + t.p("L.txt") +
+                          " --max-iterations 1 > /dev/null 2> " + t.p("err.txt");
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << shapemap::testing::slurp(t.p("err.txt"));
+  EXPECT_EQ(shapemap::testing::slurp(t.p("err.txt")).find("fewer than 20"), std::string::npos);
+  const nlohmann::json r = nlohmann::json::parse(shapemap::testing::slurp(t.p("out/report.json")));
+  EXPECT_EQ(r["parameters"]["init"], "landmarks");
 }
 
 // Stage 5 on a generated pair whose vertex-only post-repair rounds leave inverted tets

@@ -48,9 +48,13 @@ std::vector<int> carry_landmarks_to_volume(const VolumeInput& in, const std::vec
 // (cat -> lion with 4 to 16 of its 20 landmarks, the busts with 4, airplane -> bird with 3:
 // docs/methods.md, "Few landmarks: the automatic start guided by them"). The default
 // initialization with landmarks is then auto guided by them, with this note (`volume-map`
-// without --init, Python's volume_map without init).
+// without --init, Python's volume_map without init). The automatic start maps the boundaries
+// with BIM, so from 4 pairs up it is chosen only when both surfaces it would map (the boundaries,
+// or the given surfaces, after the safe repairs) are closed genus-0 surfaces (below 4 the
+// landmark start is flat, and auto is the one start that can work).
 constexpr int kLandmarkStartMinPairs = 20;
-bool sparse_landmark_start(std::vector<int> LA, std::vector<int> LB);
+bool sparse_landmark_start(std::vector<int> LA, std::vector<int> LB, const VolumeInput& A, const VolumeInput& B,
+                           bool strict);
 std::string sparse_landmark_start_note();
 
 struct VolumeMapRequest {
