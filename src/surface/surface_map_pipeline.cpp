@@ -181,8 +181,9 @@ BIMResult bim_for_request(const TriMesh& RA, const TriMesh& RB, const SurfaceMap
   else if (o.landmarks_A.empty() && r.AB.num_consistent_pairs == 0)
     notes.push_back(found(r.features_A.size(), r.features_B.size()) +
                     "no two candidate maps share two correspondences without a conflict, so the map is a "
-                    "single Moebius map, not a blend (Sec. 6.2); shapes with long thin parts map poorly so "
-                    "(--landmarks may help)" +
+                    "single Moebius map, not a blend (Sec. 6.2); shapes with long thin parts map poorly so, "
+                    "and shapes whose few features do not correspond can come out flipped or upside down "
+                    "(docs/methods.md, \"The busts: upside down\"; --landmarks may help)" +
                     (r.blend_retry_runs == 0 ? std::string()
                      : r.blend_retry_confidence > 0
                          ? "; a second run with spread samples, guided by " +
