@@ -212,8 +212,8 @@ py::dict volume_map(const RowMatrixXd& VA, const RowMatrixXi& EA, const RowMatri
     auto B = std::make_shared<VolumeInput>(volume_input(VB, EB, names.second, o, cb));
     req.landmarks_A = carry_landmarks_to_volume(*A, la);
     req.landmarks_B = carry_landmarks_to_volume(*B, lb);
-    const bool sparse =
-        default_init && req.init == "landmarks" && sparse_landmark_start(req.landmarks_A, req.landmarks_B, *A, *B, req.strict);
+    const bool sparse = default_init && req.init == "landmarks" &&
+                        sparse_landmark_start(req.landmarks_A, req.landmarks_B, *A, *B, req.strict);
     if (sparse) req.init = "auto";
     VolumeMapRun r = run_volume_map(*A, *B, req, cb);
     if (sparse) r.notes.insert(r.notes.begin(), sparse_landmark_start_note());
