@@ -180,26 +180,12 @@ TEST(VolumeMapCli, AutoInitUsesTheLandmarks) {
 // start, without the note.
 TEST(VolumeMapCli, FewLandmarksOnARingKeepTheLandmarkStart) {
   shapemap::testing::TempDir t("volmap_cli_ring");
+  // The box without its 2 x 2 middle columns of cells.
   const TetMesh box = test_volume::grid_box(6, 6, 1, 1.0, 1.0, 0.2);
-  TetMesh ring;  // the box without its 2 x 2 middle columns of cells, vertices renumbered
-  std::vector<int> id(box.V.rows(), -1);
-  std::vector<Eigen::RowVector4i> kept;
-  for (Eigen::Index k = 0; k < box.T.rows(); ++k) {
-    Eigen::RowVector3d c = Eigen::RowVector3d::Zero();
-    for (int q = 0; q < 4; ++q) c += box.V.row(box.T(k, q)) / 4.0;
-    if (std::abs(c(0) - 0.5) < 1.0 / 6 && std::abs(c(1) - 0.5) < 1.0 / 6) continue;
-    kept.push_back(box.T.row(k));
-    for (int q = 0; q < 4; ++q) id[box.T(k, q)] = 0;
-  }
-  int n = 0;
-  for (int& v : id)
-    if (v == 0) v = n++;
-  ring.V.resize(n, 3);
-  for (Eigen::Index v = 0; v < box.V.rows(); ++v)
-    if (id[v] >= 0) ring.V.row(id[v]) = box.V.row(v);
-  ring.T.resize(Eigen::Index(kept.size()), 4);
-  for (size_t k = 0; k < kept.size(); ++k)
-    for (int q = 0; q < 4; ++q) ring.T(Eigen::Index(k), q) = id[kept[k](q)];
+  const TetMesh ring = testing_ball::keep_tets(box, [](const Eigen::Vector3d& c) {
+    return std::abs(c(0) - 0.5) >= 1.0 / 6 || std::abs(c(1) - 0.5) >= 1.0 / 6;
+  });
+  const int n = int(ring.V.rows());
   write_volume(t.p("ring.vtk"), ring);
   {
     std::ofstream l(t.p("L.txt"));

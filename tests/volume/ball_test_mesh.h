@@ -67,20 +67,21 @@ inline TetMesh two_cubes(int k) {
   return m;
 }
 
-// A cube with a cavity (hollow: two boundary components). k even, >= 4.
-inline TetMesh hollow_cube(int k) {
-  TetMesh c = cube_tets(k);
-  std::vector<int> keep;
+// The tets of c whose centroid satisfies keep(centroid), on the vertices they use (renumbered
+// in order).
+template <class Keep>
+TetMesh keep_tets(const TetMesh& c, Keep keep) {
+  std::vector<int> kept;
   for (Eigen::Index t = 0; t < c.T.rows(); ++t) {
     Eigen::Vector3d ctr = Eigen::Vector3d::Zero();
     for (int q = 0; q < 4; ++q) ctr += c.V.row(c.T(t, q)).transpose() / 4.0;
-    if (ctr.cwiseAbs().maxCoeff() > 2.0 / k) keep.push_back(int(t));  // drop the centre cells
+    if (keep(ctr)) kept.push_back(int(t));
   }
   TetMesh m;
   m.V = c.V;
-  m.T.resize(keep.size(), 4);
-  for (size_t i = 0; i < keep.size(); ++i) m.T.row(i) = c.T.row(keep[i]);
-  // Drop the unreferenced centre vertex.
+  m.T.resize(kept.size(), 4);
+  for (size_t i = 0; i < kept.size(); ++i) m.T.row(i) = c.T.row(kept[i]);
+  // Drop the vertices no kept tet uses.
   std::vector<int> used(m.V.rows(), -1);
   int n = 0;
   for (Eigen::Index t = 0; t < m.T.rows(); ++t)
@@ -95,6 +96,11 @@ inline TetMesh hollow_cube(int k) {
     for (int q = 0; q < 4; ++q) m.T(t, q) = used[m.T(t, q)];
   m.V = V;
   return m;
+}
+
+// A cube with a cavity (hollow: two boundary components). k even, >= 4.
+inline TetMesh hollow_cube(int k) {
+  return keep_tets(cube_tets(k), [&](const Eigen::Vector3d& c) { return c.cwiseAbs().maxCoeff() > 2.0 / k; });
 }
 
 }  // namespace shapemap::testing_ball
