@@ -47,6 +47,8 @@ Outcome run_pair(std::uint64_t seed, PairKind kind, int vertices, bool print_sta
   if (const char* v = std::getenv("BIM_MAX_FEATURES")) o.max_features = std::atoi(v);
   if (const char* v = std::getenv("BIM_BLEND_FEATURES")) o.blend_min_features = std::atoi(v);
   if (const char* v = std::getenv("BIM_BLEND_TRIPLES")) o.blend_retry_triples = std::atoi(v);
+  // BIM_BLEND_GUIDE_MAPS=N: the stretch guide's candidates (0: off; "Too few features to blend").
+  if (const char* v = std::getenv("BIM_BLEND_GUIDE_MAPS")) o.blend_guide_maps = std::atoi(v);
   if (const char* v = std::getenv("BIM_LANDMARKS"); v && std::atoi(v) > 0) {
     o.landmarks_A = farthest_point_sampling_graph(p.A.V, p.A.F, std::atoi(v), 0);
     for (int a : o.landmarks_A) {

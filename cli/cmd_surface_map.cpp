@@ -172,6 +172,12 @@ CLI::App* add_surface_map_command(CLI::App& parent, SurfaceMapArgs& a) {
                   "BIM, that second run: once for each of this many most confident single maps' triples; the "
                   "most confident blend is kept (default 1: the best single map's only; docs/methods.md)")
       ->check(CLI::Range(1, 20));
+  app->add_option("--blend-guide-maps", a.bim.blend_guide_maps,
+                  "BIM, when no such run is more confident than the single map: one more run, guided by the "
+                  "least stretched (membrane energy W_mem, elastic Eq. 7) of this many most confident candidate "
+                  "maps on the spread samples, kept when it is less stretched than every single map "
+                  "(default 32; 0: off; docs/methods.md, \"Too few features to blend: the stretch guide\")")
+      ->check(CLI::Range(0, 10000));
   app->add_option("--blend-agreement", a.bim.blend_agreement,
                   "BIM, that second run: a candidate must carry its guiding triple within this geodesic "
                   "distance of its partners (unit-area target; default 1.0)")

@@ -120,6 +120,7 @@ py::dict surface_map(const RowMatrixXd& VA, const RowMatrixXi& FA, const RowMatr
   req.bim.landmark_feature_points = o["landmark_features"].cast<bool>();
   req.bim.blend_min_features = o["blend_features"].cast<int>();
   req.bim.blend_retry_triples = o["blend_triples"].cast<int>();
+  req.bim.blend_guide_maps = o["blend_guide_maps"].cast<int>();
   std::tie(req.bim.name_A, req.bim.name_B) = o["names"].cast<std::pair<std::string, std::string>>();
   if (!o["landmarks"].is_none()) {
     auto l = o["landmarks"].cast<std::pair<std::vector<int>, std::vector<int>>>();

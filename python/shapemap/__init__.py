@@ -157,7 +157,8 @@ def prepare_surface(V, F, seed=1, features=10, samples=256, strict=False, name="
 
 def surface_map(VA, FA, VB, FB, method="bim", landmarks=None, init=None, init_reverse=None, symmetric=False,
                 seed=1, threads=0, features=10, candidates=10000, samples=256, reverse_candidates=True,
-                matching_search=8, landmark_features=True, blend_features=12, blend_triples=1, truth=None, strict=False, elastic_preset="auto", elastic_eta=-1.0, elastic_alpha=20.0,
+                matching_search=8, landmark_features=True, blend_features=12, blend_triples=1, blend_guide_maps=32,
+                truth=None, strict=False, elastic_preset="auto", elastic_eta=-1.0, elastic_alpha=20.0,
                 elastic_iterations=300, elastic_injective=False, elastic_partial=False,
                 elastic_keep_worse=False, elastic_untangle=True, elastic_wide_untangle=True,
                 elastic_sliver_untangle=True, elastic_bridge_untangle=True, elastic_search_untangle=True,
@@ -186,7 +187,10 @@ def surface_map(VA, FA, VB, FB, method="bim", landmarks=None, init=None, init_re
     feature points' maps that agree with them). blend_features: `--blend-features` (when no two
     of BIM's candidate maps can be blended, a second run with spread samples up to this many
     features a side, guided by a single map's triple; 0: off; report["bim"]["blend_retry"]);
-    blend_triples: `--blend-triples` (that run once for each of the most confident single maps).
+    blend_triples: `--blend-triples` (that run once for each of the most confident single maps);
+    blend_guide_maps: `--blend-guide-maps` (when no such run is more confident than the single map,
+    one more guided by the least stretched of this many candidate maps on the spread samples; 0: off;
+    report["bim"]["blend_retry"]["stretch_guide"]).
     """
     if method not in ("bim", "elastic"):
         raise ValueError(f"method {method!r}: expected 'bim' or 'elastic'")
@@ -196,7 +200,7 @@ def surface_map(VA, FA, VB, FB, method="bim", landmarks=None, init=None, init_re
                 features=int(features), candidates=int(candidates), samples=int(samples),
                 reverse_candidates=bool(reverse_candidates), matching_search=int(matching_search),
                 landmark_features=bool(landmark_features), blend_features=int(blend_features), blend_triples=int(blend_triples),
-                landmarks=landmarks, init=_raw(init),
+                blend_guide_maps=int(blend_guide_maps), landmarks=landmarks, init=_raw(init),
                 init_reverse=_raw(init_reverse), truth=_raw(truth), elastic_preset=elastic_preset,
                 elastic_eta=float(elastic_eta), elastic_alpha=float(elastic_alpha),
                 elastic_iterations=int(elastic_iterations), elastic_injective=bool(elastic_injective),

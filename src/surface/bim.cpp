@@ -9,6 +9,7 @@
 #include "shapemap/geometry/geodesics.h"
 #include "shapemap/geometry/mass.h"
 #include "shapemap/geometry/sampling.h"
+#include "shapemap/surface/shell_energy.h"
 #include <Spectra/MatOp/SparseSymMatProd.h>
 #include <Spectra/SymEigsSolver.h>
 #include <Eigen/Eigenvalues>
@@ -17,6 +18,7 @@
 #include <chrono>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <numeric>
 #include <queue>
 #include <unordered_map>
@@ -1148,10 +1150,10 @@ BIMResult bim_prepared_once(const BIMSurface& sa, const BIMSurface& sb, const BI
   return out;
 }
 
-// "Too few features to blend": the surface with `anchor` (3 of its features) as its first
+// "Too few features to blend": the surface with `anchor` (3 of its features, or none) as its first
 // features, then its other features, then P_even samples (FPS order, not already features) until
 // it has k; the samples' geodesic distances are P_even's own columns.
-BIMSurface anchored_spread_features(const BIMSurface& s, const std::array<int, 3>& anchor, int k) {
+BIMSurface anchored_spread_features(const BIMSurface& s, const std::vector<int>& anchor, int k) {
   BIMSurface out = s;
   out.features.assign(anchor.begin(), anchor.end());
   for (int f : s.features)
@@ -1172,9 +1174,20 @@ BIMSurface anchored_spread_features(const BIMSurface& s, const std::array<int, 3
 }  // namespace
 
 namespace {
+using GuideTriple = std::pair<std::array<int, 3>, std::array<int, 3>>;  // (A's vertices, B's vertices)
+
+// The same three correspondences in another order are the same guide.
+bool same_guide(const GuideTriple& u, const GuideTriple& t) {
+  for (int k = 0; k < 3; ++k) {
+    const auto it = std::find(u.first.begin(), u.first.end(), t.first[k]);
+    if (it == u.first.end() || u.second[it - u.first.begin()] != t.second[k]) return false;
+  }
+  return true;
+}
+
 // The triples (A's features, B's features) of the deciding direction's single maps, the most
 // confident first, without repeats: its selected map, then its other groups' leads.
-std::vector<std::pair<std::array<int, 3>, std::array<int, 3>>> guiding_triples(const BIMResult& r, bool ba, int count) {
+std::vector<GuideTriple> guiding_triples(const BIMResult& r, bool ba, int count) {
   const BIMDirectionResult& d = ba ? r.BA : r.AB;
   std::vector<BIMMapInfo> maps;
   if (!d.selected.empty()) maps.push_back(d.selected[0]);
@@ -1184,21 +1197,84 @@ std::vector<std::pair<std::array<int, 3>, std::array<int, 3>>> guiding_triples(c
     return d.group_confidence.at(a) > d.group_confidence.at(b);
   });
   for (int g : order) maps.push_back(d.group_leads[g]);
-  std::vector<std::pair<std::array<int, 3>, std::array<int, 3>>> out;
+  std::vector<GuideTriple> out;
   for (const BIMMapInfo& m : maps) {
     auto t = ba ? std::make_pair(m.target, m.source) : std::make_pair(m.source, m.target);
-    // The same three correspondences in another order are the same guide.
-    auto same = [&](const std::pair<std::array<int, 3>, std::array<int, 3>>& u) {
-      for (int k = 0; k < 3; ++k) {
-        const auto it = std::find(u.first.begin(), u.first.end(), t.first[k]);
-        if (it == u.first.end() || u.second[it - u.first.begin()] != t.second[k]) return false;
-      }
-      return true;
-    };
-    if (std::none_of(out.begin(), out.end(), same)) out.push_back(t);
+    if (std::none_of(out.begin(), out.end(), [&](const GuideTriple& u) { return same_guide(u, t); }))
+      out.push_back(t);
     if (int(out.size()) >= count) break;
   }
   return out;
+}
+}  // namespace
+
+namespace {
+// "Too few features to blend", the stretch criterion: the membrane energy W_mem of the elastic
+// model (elastic-correspondence.txt, Eq. 7, lambda = mu = 1) of the map that sends src's
+// vertices to the points Y (both surfaces in their unit-area frames). Eq. 2's confidence is
+// bounded at every point, so a map that is right on most of a surface scores well however it
+// crushes the rest; W_mem grows without bound there (SHREC'07 busts: the heads-up Moebius maps
+// have a tenth of the W_mem of the most confident (twisted) ones and half the upside-down one's).
+class StretchEnergy {
+ public:
+  explicit StretchEnergy(const BIMSurface& src) : W_(src.mesh.V, src.mesh.F) {}
+  double operator()(const Eigen::MatrixXd& Y) const {
+    ShellEnergyTerms t;
+    W_.evaluate(Y, nullptr, &t);
+    return t.membrane;
+  }
+ private:
+  ShellEnergy W_;
+};
+
+// Candidates ranked by confidence for the stretch guide: a seeded random pool of this many when
+// there are more (BIMOptions::candidate_pool's ranking; busts, 12 features a side: 290,400).
+constexpr int kStretchGuidePool = 20000;
+
+// The images on B of A's vertices under the Moebius map of a guide triple (A -> B); false when
+// its points coincide on the sphere.
+bool triple_images(const BIMSurface& sa, const BIMSurface& sb, const GuideTriple& t, Eigen::MatrixXd& Y) {
+  Homogeneous z[3], w[3];
+  for (int k = 0; k < 3; ++k) {
+    z[k] = sa.hom[t.first[k]];
+    w[k] = sb.hom[t.second[k]];
+  }
+  try {
+    Y = bim_apply(sa, sb, Mobius::from_three_points(z, w));
+  } catch (const Error&) {
+    return false;
+  }
+  return true;
+}
+
+// BIMOptions::blend_guide_maps: appends to `guides` (the single maps' triples) the triples of the
+// blend_guide_maps most confident candidate maps on both surfaces' features with P_even samples
+// added up to k a side, scores each by the W_mem of its own Moebius map (`stretch`), and returns
+// the index of the least stretched.
+int least_stretched_guide(const BIMSurface& sa, const BIMSurface& sb, const BIMOptions& opt, int k,
+                          std::vector<GuideTriple>& guides, std::vector<double>& stretch) {
+  const BIMSurface a = anchored_spread_features(sa, {}, k), b = anchored_spread_features(sb, {}, k);
+  BIMOptions o = opt;
+  o.landmarks_A.clear();
+  o.landmarks_B.clear();
+  o.max_candidates = opt.blend_guide_maps;
+  o.candidate_pool = std::max(kStretchGuidePool, opt.blend_guide_maps + 1);
+  for (const BIMCandidate& cd : bim_candidates(a, b, o)) {
+    GuideTriple t;
+    for (int c = 0; c < 3; ++c) t.first[c] = a.features[cd.source[c]], t.second[c] = b.features[cd.target[c]];
+    if (std::none_of(guides.begin(), guides.end(), [&](const GuideTriple& u) { return same_guide(u, t); }))
+      guides.push_back(t);
+  }
+  const int n = int(guides.size());
+  std::vector<Eigen::MatrixXd> Y(n);
+  std::vector<char> ok(n);
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int i = 0; i < n; ++i) ok[i] = triple_images(sa, sb, guides[i], Y[i]);
+  const StretchEnergy W(sa);
+  stretch.assign(n, std::numeric_limits<double>::infinity());
+  for (int i = 0; i < n; ++i)
+    if (ok[i]) stretch[i] = W(Y[i]);
+  return int(std::min_element(stretch.begin(), stretch.end()) - stretch.begin());
 }
 }  // namespace
 
@@ -1225,25 +1301,31 @@ BIMResult bim_prepared(const BIMSurface& sa, const BIMSurface& sb, const BIMOpti
   auto decider_confidence = [&](const BIMResult& r) {
     return opt.symmetric && r.AB.from_reverse ? r.BA.integrated_confidence : r.AB.integrated_confidence;
   };
-  const auto triples = guiding_triples(out, opt.symmetric && out.AB.from_reverse, std::max(1, opt.blend_retry_triples));
+  const std::vector<GuideTriple> triples =
+      guiding_triples(out, opt.symmetric && out.AB.from_reverse, std::max(1, opt.blend_retry_triples));
   BIMOptions o = opt;
   o.landmark_feature_points = true;
   o.landmark_agreement = opt.blend_agreement;
   o.max_candidates = std::min(opt.max_candidates, kBlendRetryMaxCandidates);
+  std::vector<std::pair<std::string, double>> retry_timings;
+  double retry_seconds = 0;
+  int runs = 0;
+  auto run = [&](const GuideTriple& t) {  // BIM again, guided by t
+    o.landmarks_A.assign(t.first.begin(), t.first.end());
+    o.landmarks_B.assign(t.second.begin(), t.second.end());
+    BIMResult again = bim_prepared_once(anchored_spread_features(sa, o.landmarks_A, k),
+                                        anchored_spread_features(sb, o.landmarks_B, k), o, progress, false);
+    retry_seconds += again.total_seconds;
+    const std::string tag = runs == 0 ? "blend_retry/" : "blend_retry" + std::to_string(runs) + "/";
+    ++runs;
+    for (const auto& s : again.timings) retry_timings.push_back({tag + s.first, s.second});
+    return again;
+  };
   BIMResult best;
   double best_confidence = -1;
   int best_rank = -1;
-  std::vector<std::pair<std::string, double>> retry_timings;
-  double retry_seconds = 0;
   for (size_t t = 0; t < triples.size(); ++t) {
-    const auto& [ta, tb] = triples[t];
-    o.landmarks_A.assign(ta.begin(), ta.end());
-    o.landmarks_B.assign(tb.begin(), tb.end());
-    BIMResult again = bim_prepared_once(anchored_spread_features(sa, ta, k), anchored_spread_features(sb, tb, k), o,
-                                        progress, false);
-    retry_seconds += again.total_seconds;
-    const std::string tag = t == 0 ? "blend_retry/" : "blend_retry" + std::to_string(t) + "/";
-    for (const auto& s : again.timings) retry_timings.push_back({tag + s.first, s.second});
+    BIMResult again = run(triples[t]);
     // A blend, and the most confident one so far (Sec. 6.2's own criterion, of the direction
     // that decides).
     if (again.AB.num_consistent_pairs > 0 && decider_confidence(again) > best_confidence) {
@@ -1253,16 +1335,39 @@ BIMResult bim_prepared(const BIMSurface& sa, const BIMSurface& sb, const BIMOpti
     }
   }
   // Kept when more confident than the single map.
-  const bool keep = best_rank >= 0 && best_confidence > decider_confidence(out);
+  bool keep = best_rank >= 0 && best_confidence > decider_confidence(out);
+  // BIMOptions::blend_guide_maps: else the single map may be a wrong one that confidence does
+  // not see; a last run, guided by the least stretched candidate on spread features when it is
+  // less stretched than every single map, is kept when it blends.
+  bool stretch_kept = false;
+  double single_stretch = 0, guide_stretch = 0;
+  if (!keep && opt.blend_guide_maps > 0) {
+    std::vector<GuideTriple> guides = triples;
+    std::vector<double> e;
+    const int g = least_stretched_guide(sa, sb, opt, k, guides, e);
+    single_stretch = e[0];
+    guide_stretch = e[g];
+    if (g >= int(triples.size())) {
+      BIMResult again = run(guides[g]);
+      if (again.AB.num_consistent_pairs > 0) {
+        best_confidence = decider_confidence(again);
+        best = std::move(again);
+        keep = stretch_kept = true;
+      }
+    }
+  }
   BIMResult& kept = keep ? best : out;
   kept.blend_retry_confidence = std::max(best_confidence, 0.0);
-  kept.blend_retry_runs = int(triples.size());
+  kept.blend_retry_runs = runs;
+  kept.blend_retry_stretch_guide = stretch_kept;
+  kept.single_map_stretch = single_stretch;
+  kept.blend_retry_stretch = guide_stretch;
   kept.total_seconds = out.total_seconds + retry_seconds;
   if (!keep) {  // the second runs' stages still count
     out.timings.insert(out.timings.end(), retry_timings.begin(), retry_timings.end());
     return out;
   }
-  best.blend_retry_rank = best_rank;
+  best.blend_retry_rank = stretch_kept ? -1 : best_rank;
   best.blend_retry_features_A = int(sa.features.size());
   best.blend_retry_features_B = int(sb.features.size());
   std::vector<std::pair<std::string, double>> timings = out.timings;

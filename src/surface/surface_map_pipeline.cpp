@@ -168,7 +168,16 @@ BIMResult bim_for_request(const TriMesh& RA, const TriMesh& RB, const SurfaceMap
            std::to_string(b) + " on " + o.name_B + ": ";
   };
   const std::string runs = std::to_string(r.blend_retry_runs) + (r.blend_retry_runs == 1 ? " run" : " runs");
-  if (r.blend_retry_features_A > 0)
+  if (r.blend_retry_stretch_guide)
+    notes.push_back(found(r.blend_retry_features_A, r.blend_retry_features_B) +
+                    "no two candidate maps could be blended (Sec. 6.2), and no run again with evenly spread "
+                    "samples guided by a single map's triple was more confident than the single map; so a last "
+                    "run was guided by the least stretched candidate map on the spread samples (membrane energy "
+                    "W_mem " + std::to_string(r.blend_retry_stretch) + " against the single map's " +
+                    std::to_string(r.single_map_stretch) + "): a blend of " + std::to_string(r.AB.selected.size()) +
+                    " maps (--blend-guide-maps 0 keeps the single Moebius map; docs/methods.md, \"Too few features "
+                    "to blend: the stretch guide\")");
+  else if (r.blend_retry_features_A > 0)
     notes.push_back(found(r.blend_retry_features_A, r.blend_retry_features_B) +
                     "no two candidate maps could be blended (Sec. 6.2), so it ran again with evenly spread "
                     "samples added up to " + std::to_string(o.blend_min_features) + " a side, guided by " +
@@ -217,6 +226,7 @@ void run_bim(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& req, c
                      {"entry_fraction", o.entry_fraction}, {"feature_radius", o.feature_radius},
                      {"min_features", o.min_features},     {"blend_min_features", o.blend_min_features},
                      {"blend_agreement", o.blend_agreement}, {"blend_triples", o.blend_retry_triples},
+                     {"blend_guide_maps", o.blend_guide_maps},
                      {"symmetric", o.symmetric}, {"reverse_candidates", o.reverse_candidates}};
   // BIM's own output (Sec. 5): candidates, consistency spectrum, selected maps, stages.
   nlohmann::json bim;
@@ -227,7 +237,10 @@ void run_bim(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& req, c
   if (r.blend_retry_runs > 0)  // none of the first features' maps could be blended: the second runs
     bim["blend_retry"] = {{"kept", r.blend_retry_features_A > 0}, {"confidence", r.blend_retry_confidence},
                           {"features_A", r.blend_retry_features_A}, {"features_B", r.blend_retry_features_B},
-                          {"runs", r.blend_retry_runs}, {"guided_by_rank", r.blend_retry_rank}};
+                          {"runs", r.blend_retry_runs}, {"guided_by_rank", r.blend_retry_rank},
+                          {"stretch_guide", r.blend_retry_stretch_guide}};
+  if (r.single_map_stretch > 0)  // BIMOptions::blend_guide_maps: W_mem chose between the maps
+    bim["blend_retry"].update({{"single_map_stretch", r.single_map_stretch}, {"stretch", r.blend_retry_stretch}});
   bim["AB"] = direction_json(r.AB);
   if (req.symmetric) bim["BA"] = direction_json(r.BA);
   nlohmann::json stages = nlohmann::json::object();

@@ -258,6 +258,7 @@ TEST(BimCli, MinFeaturesAndFeatureRadiusReachBim) {
   // most confident single maps' distinct triples.
   EXPECT_EQ(retry["bim"]["blend_retry"]["runs"].get<int>(), 1);
   EXPECT_EQ(retry["parameters"]["blend_triples"].get<int>(), 1);
+  EXPECT_EQ(retry["parameters"]["blend_guide_maps"].get<int>(), 32);  // the stretch guide's candidates
   ASSERT_EQ(noisy(" -o " + t.p("triples") + fast + " --feature-radius 5 --blend-triples 3", t.p("triples.err")), 0);
   const nlohmann::json triples = read_json(t.dir / "triples" / "report.json");
   EXPECT_EQ(triples["parameters"]["blend_triples"].get<int>(), 3);
@@ -270,5 +271,6 @@ TEST(BimCli, MinFeaturesAndFeatureRadiusReachBim) {
   EXPECT_EQ(run("surface-map " + A + " " + B + " -o " + t.p("bad") + fast + " --min-features 2"), 2);
   EXPECT_EQ(run("surface-map " + A + " " + B + " -o " + t.p("bad") + fast + " --feature-radius 0"), 2);
   EXPECT_EQ(run("surface-map " + A + " " + B + " -o " + t.p("bad") + fast + " --blend-triples 0"), 2);
+  EXPECT_EQ(run("surface-map " + A + " " + B + " -o " + t.p("bad") + fast + " --blend-guide-maps -1"), 2);
   EXPECT_FALSE(fs::exists(t.dir / "bad"));
 }

@@ -321,3 +321,7 @@ def test_too_few_features_to_blend_runs_bim_again(surfaces):
     more = shapemap.surface_map(VA, FA, VB, FB, blend_triples=3, **fast)
     m = more.report["bim"]["blend_retry"]
     assert 1 <= m["runs"] <= 3 and m["confidence"] >= r["confidence"]
+    # blend_guide_maps (`--blend-guide-maps`): the stretch guide's candidates, reported.
+    assert again.report["parameters"]["blend_guide_maps"] == 32
+    off = shapemap.surface_map(VA, FA, VB, FB, blend_guide_maps=0, **fast)
+    assert off.report["parameters"]["blend_guide_maps"] == 0 and not off.report["bim"]["blend_retry"]["stretch_guide"]

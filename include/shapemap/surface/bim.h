@@ -115,6 +115,14 @@ struct BIMOptions {
   // SHREC'07's glasses the blends guided by the right triple and by its symmetric flip score
   // within 0.1% of each other, and the flip won (docs/methods.md, "Too few features to blend").
   int blend_retry_triples = 1;
+  // Our addition (docs/methods.md, "Too few features to blend: the stretch guide"): when no such
+  // run is more confident than the single map, one more run, guided by the triple of the least
+  // stretched candidate map (membrane energy W_mem of its own Moebius map, elastic-correspondence
+  // Eq. 7) among this many most confident candidates on the spread features, when it is less
+  // stretched than every single map; kept when it blends. Confidence (Eq. 2) is bounded per point
+  // and does not see a part crushed (SHREC'07 busts: the single map puts the head on the base).
+  // 0: off.
+  int blend_guide_maps = 32;
 };
 
 // A surface prepared for BIM (all in the normalized frame: unit area, area centroid at 0).
@@ -238,9 +246,14 @@ struct BIMResult {
   // > 0: the features each surface had when BIM found no two maps to blend, ran again with
   // options.blend_min_features a side and kept that blend (features_A / features_B are its).
   int blend_retry_features_A = 0, blend_retry_features_B = 0;
-  double blend_retry_confidence = 0;  // > 0: the best second run's integrated confidence (kept or not)
+  double blend_retry_confidence = 0;  // > 0: the best second run's integrated confidence (kept or not;
+                                      // the stretch guide's when its run is kept)
   int blend_retry_runs = 0;           // second runs made (one per guiding triple)
-  int blend_retry_rank = 0;           // kept: the rank of the single map whose triple guided it (0: the best)
+  int blend_retry_rank = 0;           // kept: the rank of the single map whose triple guided it (0: the best;
+                                      // -1: the stretch guide)
+  bool blend_retry_stretch_guide = false;  // the kept run was guided by BIMOptions::blend_guide_maps
+  double single_map_stretch = 0;      // > 0 when the stretch guide was sought: W_mem of the single map (A -> B)
+  double blend_retry_stretch = 0;     // ... and of the least stretched guide
   std::vector<std::pair<std::string, double>> timings;  // per stage, seconds
   double total_seconds = 0;
 };
