@@ -248,11 +248,19 @@ TEST(BimCreatures, TheMaximaFoundDecideWhetherLandmarksGuide) {
 // candidate maps share two correspondences without a conflict, so Sec. 6.2's blend is one
 // Moebius map; BIM then runs again with P_even samples added up to blend_min_features a side,
 // guided by that map's triple, and keeps the blend, which is closer to the truth.
-TEST(BimCreatures, TooFewFeaturesToBlendAddSpreadSamples) {
-  GeneratedPair p = make_creature_pair(1, PairKind::NearIsometric, 1500);
+namespace {
+// A -> B with at most 3 AGD maxima a side, the case of "Too few features to blend".
+BIMOptions three_maxima_one_direction() {
   BIMOptions o;
   o.symmetric = false;
   o.max_features = 3;
+  return o;
+}
+}  // namespace
+
+TEST(BimCreatures, TooFewFeaturesToBlendAddSpreadSamples) {
+  GeneratedPair p = make_creature_pair(1, PairKind::NearIsometric, 1500);
+  BIMOptions o = three_maxima_one_direction();
   o.blend_min_features = 0;
   const BIMResult single = blended_intrinsic_maps(p.A, p.B, o);
   ASSERT_EQ(single.features_A.size(), 3u);
@@ -292,9 +300,7 @@ TEST(BimCreatures, TooFewFeaturesToBlendAddSpreadSamples) {
 // stretched than the single map, and the blend maps no worse than the single map.
 TEST(BimCreatures, TheStretchGuideRunsWhenTheSingleMapStands) {
   GeneratedPair p = make_creature_pair(1, PairKind::NearIsometric, 1500);
-  BIMOptions o;
-  o.symmetric = false;
-  o.max_features = 3;
+  BIMOptions o = three_maxima_one_direction();
   o.blend_agreement = 0.2;
   o.blend_guide_maps = 0;
   const BIMResult single = blended_intrinsic_maps(p.A, p.B, o);
