@@ -175,7 +175,7 @@ CLI::App* add_surface_map_command(CLI::App& parent, SurfaceMapArgs& a) {
   app->add_option("--blend-guide-maps", a.bim.blend_guide_maps,
                   "BIM, when no such run is more confident than the single map: one more run, guided by the "
                   "least stretched (membrane energy W_mem, elastic Eq. 7) of this many most confident candidate "
-                  "maps on the spread samples, kept when it is less stretched than every single map "
+                  "maps on the spread samples when it is less stretched than every single map, kept when it blends "
                   "(default 32; 0: off; docs/methods.md, \"Too few features to blend: the stretch guide\")")
       ->check(CLI::Range(0, 10000));
   app->add_option("--blend-agreement", a.bim.blend_agreement,

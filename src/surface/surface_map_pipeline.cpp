@@ -200,7 +200,11 @@ BIMResult bim_for_request(const TriMesh& RA, const TriMesh& RB, const SurfaceMap
                                                         : "the triples of the " + std::to_string(r.blend_retry_runs) +
                                                               " most confident single maps") +
                                ", was less confident (" + std::to_string(r.blend_retry_confidence) + ")"
-                         : "; a second run with spread samples (" + runs + ") gave no blend"));
+                         : "; a second run with spread samples (" + runs + ") gave no blend") +
+                    (r.single_map_stretch > 0 ? "; no candidate on the spread samples less stretched than the "
+                                                "single map (W_mem " + std::to_string(r.single_map_stretch) +
+                                                ") gave a blend"
+                                              : std::string()));
   return r;
 }
 

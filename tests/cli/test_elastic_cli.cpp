@@ -266,6 +266,15 @@ TEST(BimCli, MinFeaturesAndFeatureRadiusReachBim) {
   EXPECT_LE(triples["bim"]["blend_retry"]["runs"].get<int>(), 3);
   EXPECT_GE(triples["bim"]["blend_retry"]["confidence"].get<double>(),
             retry["bim"]["blend_retry"]["confidence"].get<double>());
+  // --blend-agreement 0.05: no run blends, so the single map stands; the stretch guide, a less
+  // stretched candidate on the spread samples (W_mem), is tried last and reported.
+  ASSERT_EQ(noisy(" -o " + t.p("strict") + fast + " --feature-radius 5 --blend-agreement 0.05", t.p("strict.err")), 0);
+  const nlohmann::json strict = read_json(t.dir / "strict" / "report.json");
+  EXPECT_FALSE(strict["bim"]["blend_retry"]["kept"].get<bool>());
+  EXPECT_EQ(strict["bim"]["blend_retry"]["runs"].get<int>(), 2);
+  EXPECT_LT(strict["bim"]["blend_retry"]["stretch"].get<double>(),
+            strict["bim"]["blend_retry"]["single_map_stretch"].get<double>());
+  EXPECT_NE(shapemap::testing::slurp(t.p("strict.err")).find("less stretched than the single map"), std::string::npos);
   EXPECT_EQ(many["bim"]["features_A"].size(), 7u);
   EXPECT_EQ(many["bim"]["features_B"].size(), 7u);
   EXPECT_EQ(run("surface-map " + A + " " + B + " -o " + t.p("bad") + fast + " --min-features 2"), 2);
