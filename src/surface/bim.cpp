@@ -337,20 +337,31 @@ void most_confident(const BIMSurface& src, const BIMSurface& dst, int keep, std:
   cand = std::move(kept);
 }
 
-// Sec. 4: the Möbius map of a candidate's three correspondences (false when its feature
-// points coincide numerically on the sphere: no map).
-bool candidate_mobius(const BIMSurface& src, const BIMSurface& dst, BIMCandidate& cd) {
+// Sec. 4: the Möbius map taking src's vertices vs to dst's vertices vt (false when the points
+// coincide numerically on the sphere: no map).
+bool mobius_through(const BIMSurface& src, const BIMSurface& dst, const std::array<int, 3>& vs,
+                    const std::array<int, 3>& vt, Mobius& m) {
   Homogeneous z[3], w[3];
   for (int k = 0; k < 3; ++k) {
-    z[k] = src.hom[src.features[cd.source[k]]];
-    w[k] = dst.hom[dst.features[cd.target[k]]];
+    z[k] = src.hom[vs[k]];
+    w[k] = dst.hom[vt[k]];
   }
   try {
-    cd.mobius = Mobius::from_three_points(z, w);
+    m = Mobius::from_three_points(z, w);
   } catch (const Error&) {
     return false;
   }
   return true;
+}
+
+// Sec. 4: the Möbius map of a candidate's three correspondences.
+bool candidate_mobius(const BIMSurface& src, const BIMSurface& dst, BIMCandidate& cd) {
+  std::array<int, 3> vs, vt;
+  for (int k = 0; k < 3; ++k) {
+    vs[k] = src.features[cd.source[k]];
+    vt[k] = dst.features[cd.target[k]];
+  }
+  return mobius_through(src, dst, vs, vt, cd.mobius);
 }
 
 // Triples of "Landmarks among the feature points" that are not landmark triples: a triple
@@ -1234,16 +1245,9 @@ constexpr int kStretchGuidePool = 20000;
 // The images on B of A's vertices under the Moebius map of a guide triple (A -> B); false when
 // its points coincide on the sphere.
 bool triple_images(const BIMSurface& sa, const BIMSurface& sb, const GuideTriple& t, Eigen::MatrixXd& Y) {
-  Homogeneous z[3], w[3];
-  for (int k = 0; k < 3; ++k) {
-    z[k] = sa.hom[t.first[k]];
-    w[k] = sb.hom[t.second[k]];
-  }
-  try {
-    Y = bim_apply(sa, sb, Mobius::from_three_points(z, w));
-  } catch (const Error&) {
-    return false;
-  }
+  Mobius m;
+  if (!mobius_through(sa, sb, t.first, t.second, m)) return false;
+  Y = bim_apply(sa, sb, m);
   return true;
 }
 
