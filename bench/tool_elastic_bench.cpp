@@ -117,6 +117,8 @@ double speed_run(int nv) {
               pair.A.num_vertices(), pair.B.num_vertices(), t_bim, t_el, cpu_el, o.eta,
               o.inner_f_tol_ramp, r.time_setup, r.outer_iterations, int(r.converged),
               o.precondition_stiffness);
+  std::printf("  tighter start of the first %d outer iterations: %s (initial maps fold %.3g%% of the triangles)\n",
+              o.inner_f_tol_start_iterations, r.tight_start ? "yes" : "no", 100 * r.initial_fold_fraction);
   std::printf("  feature anchors (included above): %zu pairs, %.2f s; held A->B %d, B->A %d\n", anchors.A.size(),
               t_anchors, r.anchors_holding_AB, r.anchors_holding_BA);
   std::printf("  per outer iteration: %.4f s = projection %.4f s + deformation %.4f s\n",
@@ -219,9 +221,11 @@ bool quality_vs_bim() {
                 s, pair.A.num_vertices(), pair.B.num_vertices(), d0.conformal_mean,
                 d1.conformal_mean, d0.area_mean_abs, d1.area_mean_abs, d0.mean_curvature_error,
                 d1.mean_curvature_error, g0, g1, d0.flipped, d1.flipped, t);
-    std::printf("     eta %g, outer iterations %d, L-BFGS iterations per outer %.1f, degenerate faces %d -> %d\n",
+    std::printf("     eta %g, outer iterations %d, L-BFGS iterations per outer %.1f, degenerate faces %d -> %d, "
+                "tighter start %s (initial folds %.3g%%)\n",
                 o.eta, r.outer_iterations, double(inner) / std::max(1, r.outer_iterations),
-                r.degenerate_faces_initial, r.degenerate_faces_final);
+                r.degenerate_faces_initial, r.degenerate_faces_final, r.tight_start ? "yes" : "no",
+                100 * r.initial_fold_fraction);
     std::fflush(stdout);
   }
   std::printf("refined beats BIM on: conformal %d/%d, area %d/%d, mean curvature %d/%d; "

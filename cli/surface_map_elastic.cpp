@@ -107,8 +107,12 @@ void add_elastic_options(CLI::App* app, ElasticSettings& o, std::string& truth_a
   app->add_option("--elastic-start-inner-f-tol", o.start_inner_f_tol,
                   "elastic: the same during the first 40 outer iterations (default 1e-7: lets the "
                   "map leave its start's basin while beta is small; 0: as the ramp's; "
-                  "docs/methods.md)")
+                  "docs/methods.md), when the initial maps fold enough triangles (below)")
       ->check(non_negative());
+  app->add_option("--elastic-start-min-folds", o.start_min_folds,
+                  "elastic: the tighter start runs only when an initial map has at least this "
+                  "fraction of its triangles flipped or collapsed (default 0.001; 0: always)")
+      ->check(CLI::Range(0.0, 1.0));
   app->add_flag("--elastic-no-precondition", o.no_precondition,
                 "elastic: plain L-BFGS in the Y steps (default: initial inverse Hessian from "
                 "the cotangent Laplacian and the mismatch terms, docs/methods.md)");

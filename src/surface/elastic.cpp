@@ -919,6 +919,12 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
   DirectionLog logA, logB;
   setup_direction_logs(A, B, init_AB, init_BA, a, b, bij, opt.normalize_area, logA, logB);
   res.time_setup = seconds_since(t_start);
+  res.initial_fold_fraction = double(logA.map0.bad()) / double(std::max<Eigen::Index>(1, A.F.rows()));
+  if (bij)
+    res.initial_fold_fraction = std::max(res.initial_fold_fraction,
+                                         double(logB.map0.bad()) / double(std::max<Eigen::Index>(1, B.F.rows())));
+  res.tight_start = opt.inner_f_tol_start > 0 && opt.inner_f_tol_start_iterations > 0 &&
+                    res.initial_fold_fraction >= opt.inner_f_tol_start_min_folds;
 
   const double gamma_full = opt.gamma * wscale;
   double E_prev = 0;
@@ -930,7 +936,7 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
     const double frac = std::min(1.0, double(k) / double(ramp));
     const double beta = (opt.beta_start + (opt.beta_end - opt.beta_start) * frac) * wscale;
     const double gamma = opt.gamma_ramp ? gamma_full * frac : gamma_full;
-    const double f_tol = k < opt.inner_f_tol_start_iterations && opt.inner_f_tol_start > 0 ? opt.inner_f_tol_start
+    const double f_tol = k < opt.inner_f_tol_start_iterations && res.tight_start ? opt.inner_f_tol_start
                          : k < opt.beta_ramp_iterations && opt.inner_f_tol_ramp > 0 ? opt.inner_f_tol_ramp
                                                                                      : opt.inner_f_tol;
     if (k == opt.beta_ramp_iterations && opt.anchors.release_after_ramp) release_anchors(a, b, res);

@@ -645,6 +645,45 @@ TEST(Elastic, RampInnerToleranceOnlyLoosensTheRamp) {
   EXPECT_EQ((r0.Y - r2.Y).cwiseAbs().maxCoeff(), 0.0);
 }
 
+// ElasticOptions::inner_f_tol_start_min_folds (issue 20 speed): the tighter start runs only
+// when an initial map flips or collapses at least that fraction of its triangles. A clean
+// start then runs exactly as with no tighter start; the threshold 0 forces it (more
+// evaluations while it lasts); a start with collapsed triangles gets it.
+TEST(Elastic, TighterStartOnlyWhereTheStartFolds) {
+  TriMesh A = bumpy_sphere(10, 14, 0.1, 0.0);
+  TriMesh B = bumpy_sphere(11, 13, 0.12, 0.7);
+  const BarycentricMap P = project(A.V, B), Q = project(B.V, A);
+  ElasticOptions o;
+  o.max_outer_iterations = 6;
+  o.beta_ramp_iterations = 4;
+  o.inner_f_tol_start_iterations = 3;
+  o.energy_tol = 0;
+  const ElasticResult clean = elastic_correspondence(A, B, P, Q, o);
+  EXPECT_FALSE(clean.tight_start);
+  EXPECT_LT(clean.initial_fold_fraction, o.inner_f_tol_start_min_folds);
+  o.inner_f_tol_start = 0;
+  const ElasticResult off = elastic_correspondence(A, B, P, Q, o);
+  EXPECT_FALSE(off.tight_start);
+  EXPECT_EQ((clean.Y - off.Y).cwiseAbs().maxCoeff(), 0.0);
+  o.inner_f_tol_start = 1e-7;
+  o.inner_f_tol_start_min_folds = 0;
+  const ElasticResult forced = elastic_correspondence(A, B, P, Q, o);
+  EXPECT_TRUE(forced.tight_start);
+  auto start_evaluations = [](const ElasticResult& r) {
+    int e = 0;
+    for (int k = 0; k < 3; ++k) e += r.history[size_t(k)].inner_evaluations;
+    return e;
+  };
+  EXPECT_GT(start_evaluations(forced), start_evaluations(clean));
+  o.inner_f_tol_start_min_folds = 1e-3;
+  const BarycentricMap Ps = snap(P);
+  const SurfaceDistortion d = surface_distortion(A, B, Ps);
+  ASSERT_GE(d.flipped + d.degenerate, int(1e-3 * A.F.rows()) + 1);
+  const ElasticResult folded = elastic_correspondence(A, B, Ps, Q, o);
+  EXPECT_TRUE(folded.tight_start);
+  EXPECT_GE(folded.initial_fold_fraction, 1e-3);
+}
+
 // Y steps with H0 = (theta K)^-1 (ElasticOptions::precondition_stiffness, issue 20 speed):
 // one Y step from the same start (one outer iteration, same P step, no stalled-progress
 // stop, the same L-BFGS iteration budget) ends at a lower energy than with H0 = gamma I, and

@@ -89,6 +89,12 @@ struct ElasticOptions {
   // over the first 40 outer iterations leaves it (not 30), docs/methods.md.
   double inner_f_tol_start = 1e-7;
   int inner_f_tol_start_iterations = 40;
+  // ... and only when an initial map has at least this fraction of its source's triangles
+  // flipped or collapsed (the larger of the two directions; issue 20 speed, our addition): a
+  // start with a few isolated folds needs no far deviation, and at 10k vertices a side (1 of
+  // 18,976 triangles flipped) the tighter start took 60% of the Y steps' time for the same
+  // map (docs/methods.md, "Speed at 10k vertices"). 0 = whenever inner_f_tol_start > 0.
+  double inner_f_tol_start_min_folds = 1e-3;
   int lbfgs_memory = 10;          // L-BFGS history (the paper uses BFGS; see docs/methods.md)
   // Y-step L-BFGS with the initial inverse Hessian H0 = (theta K)^-1 (issue 20 speed, our
   // addition; surface/elastic_preconditioner.h): K = kappa L_X + 2 beta M + 2 gamma
@@ -200,6 +206,10 @@ struct ElasticResult {
   ElasticGuard guard_AB, guard_BA;   // which iterate each direction returns, and why
   BarycentricMap last_AB, last_BA;   // the last iterate, kept only when the guard returned another
   long long projection_rows_kept = 0;  // rows the safe projection kept at their previous value
+  // Flipped + collapsed triangles of the initial maps over their source's triangles (the larger
+  // direction), and whether the tighter start (inner_f_tol_start) ran because of them.
+  double initial_fold_fraction = 0;
+  bool tight_start = false;
   // ElasticAnchors that held by the end of the ramp (release_after_ramp) or of the run
   int anchors_holding_AB = 0, anchors_holding_BA = 0;
   bool anchors_released = false;  // they let go after the ramp
