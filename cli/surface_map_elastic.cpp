@@ -113,6 +113,11 @@ void add_elastic_options(CLI::App* app, ElasticSettings& o, std::string& truth_a
                   "elastic: the tighter start runs only when an initial map has at least this "
                   "fraction of its triangles flipped or collapsed (default 0.001; 0: always)")
       ->check(CLI::Range(0.0, 1.0));
+  app->add_option("--elastic-mask-tol", o.mask_tol,
+                  "elastic: a Y step whose line search fails leaves out of the bending term (Eq. 9) "
+                  "the edges of triangles of Y below this fraction of their rest area and carries on "
+                  "(default 0.01; 0: off, Sec. 5.2's mask only; docs/methods.md)")
+      ->check(CLI::Range(0.0, 1.0));
   app->add_flag("--elastic-no-precondition", o.no_precondition,
                 "elastic: plain L-BFGS in the Y steps (default: initial inverse Hessian from "
                 "the cotangent Laplacian and the mismatch terms, docs/methods.md)");

@@ -136,6 +136,7 @@ struct Side {
   Eigen::MatrixXd target_normals;
   std::vector<unsigned char> fold_prev;
   long long rows_kept = 0;
+  int sliver_mask_steps = 0;  // Y steps that left slivers out of the bending set (mask_tol)
   // ElasticOptions::anchors, this side's view: source vertex, target vertex, a target face
   // with its corner at that vertex (the fixed P row), and the weight of the Y-step term
   std::vector<int> anchor_src, anchor_dst, anchor_face, anchor_corner;
@@ -515,6 +516,7 @@ int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bij
   int iterations = 0;
   double last_decrease = 0;  // f_{k-1} - f_k of the last accepted step (0: none yet in this Y step)
   bool restarted = false;  // the last direction was steepest descent after a reset
+  bool slivers_out = false;  // the set frozen again without slivers (ElasticOptions::mask_tol)
   if (std::isfinite(f) && L.g.lpNorm<Eigen::Infinity>() >= opt.inner_tol) {
     while (iterations < opt.inner_max_iterations) {
       direction();
@@ -547,6 +549,20 @@ int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bij
         if (L.H.stored() > 0 && !restarted) {  // retry once from steepest descent
           L.reset();
           restarted = true;
+          continue;
+        }
+        // Stalled at the bending term's slivers (ElasticOptions::mask_tol): without their
+        // edges the energy changes, so evaluate it again and start over from -K^-1 g.
+        if (!slivers_out && opt.mask_tol > 0 && s.shell.freeze_mask(L.x.data(), true)) {
+          slivers_out = true;
+          ++s.sliver_mask_steps;
+          f = obj(L.x, L.g, s.shell_g.data());
+          ++evaluations;
+          parts = obj.last;
+          L.reset();
+          restarted = false;
+          last_decrease = 0;
+          if (!std::isfinite(f) || L.g.lpNorm<Eigen::Infinity>() < opt.inner_tol) break;
           continue;
         }
         break;
@@ -972,6 +988,7 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
   res.degenerate_faces_final =
       count_degenerate(a, opt.degenerate_tol) + (bij ? count_degenerate(b, opt.degenerate_tol) : 0);
   res.projection_rows_kept = a.rows_kept + b.rows_kept;
+  res.sliver_mask_steps = a.sliver_mask_steps + b.sliver_mask_steps;
   if (!res.anchors_released) {
     for (char on : a.anchor_on) res.anchors_holding_AB += on;
     for (char on : b.anchor_on) res.anchors_holding_BA += on;
@@ -993,6 +1010,7 @@ ShellEnergyOptions shell_energy_options(const ElasticOptions& opt) {
   so.mu = opt.mu;
   so.log_eps = opt.log_eps;
   so.degenerate_tol = opt.degenerate_tol;
+  so.mask_tol = opt.mask_tol;
   return so;
 }
 

@@ -367,7 +367,7 @@ double ShellEnergy::evaluate(const double* y, double* grad, ShellEnergyTerms* te
   return total;
 }
 
-bool ShellEnergy::freeze_mask(const double* y) {
+bool ShellEnergy::freeze_mask(const double* y, bool leave_out_slivers) {
   const int m = int(F_.rows()), k = int(E_.rows());
   frozen_ = false;
   const bool had = frozen_once_;
@@ -375,7 +375,8 @@ bool ShellEnergy::freeze_mask(const double* y) {
   for (int f = 0; f < m; ++f) {
     const V3 x0 = row3(y, F_(f, 0)), x1 = row3(y, F_(f, 1)), x2 = row3(y, F_(f, 2));
     const double Nlen = (x1 - x0).cross(x2 - x0).norm();
-    deg[f] = !(Nlen > opt_.degenerate_tol * nref_(f)) || nref_(f) == 0;
+    const double tol = leave_out_slivers ? std::max(opt_.degenerate_tol, opt_.mask_tol) : opt_.degenerate_tol;
+    deg[f] = !(Nlen > tol * nref_(f)) || nref_(f) == 0;
   }
   frozen_adm_.resize(k);
   bool changed = !had;

@@ -316,6 +316,7 @@ nlohmann::json elastic_parameters_json(const ElasticOptions& eo, const std::stri
           {"inner_f_tol_start", eo.inner_f_tol_start},
           {"inner_f_tol_start_iterations", eo.inner_f_tol_start_iterations},
           {"inner_f_tol_start_min_folds", eo.inner_f_tol_start_min_folds},
+          {"mask_tol", eo.mask_tol},
           {"interpolate_initial_step", eo.interpolate_initial_step},
           {"unit_area", eo.normalize_area},
           {"keep_orientation", eo.keep_orientation}, {"gamma_ramp", eo.gamma_ramp},
@@ -394,7 +395,8 @@ nlohmann::json elastic_section_json(const ElasticResult& r, const ElasticOptions
                       {"time_per_iteration_deformation", r.time_deformation / K},
                       {"degenerate_faces_initial", r.degenerate_faces_initial},
                       {"degenerate_faces_final", r.degenerate_faces_final},
-                      {"initial_fold_fraction", r.initial_fold_fraction}, {"tight_start", r.tight_start}};
+                      {"initial_fold_fraction", r.initial_fold_fraction}, {"tight_start", r.tight_start},
+                      {"sliver_mask_steps", r.sliver_mask_steps}};
   using It = ElasticIterate;
   e["guard"]["enabled"] = eo.keep_no_worse;
   e["projection_rows_kept"] = r.projection_rows_kept;
@@ -613,6 +615,7 @@ ElasticOptions elastic_options_from_settings(const ElasticSettings& o, const Tri
   if (o.no_precondition) eo.precondition_stiffness = 0;
   if (o.start_inner_f_tol >= 0) eo.inner_f_tol_start = o.start_inner_f_tol;
   if (o.start_min_folds >= 0) eo.inner_f_tol_start_min_folds = o.start_min_folds;
+  if (o.mask_tol >= 0) eo.mask_tol = o.mask_tol;
   if (o.unit_first_step) eo.interpolate_initial_step = false;
   return eo;
 }

@@ -54,6 +54,14 @@ struct ElasticOptions {
   double lambda = 1.0, mu = 1.0;  // Lame coefficients, Eq. 7 (Sec. 4.1: lambda = mu = 1)
   double log_eps = 1e-4;          // Sec. 4.1: -log det G linearly extended below eps
   double degenerate_tol = 1e-8;   // Sec. 5.2 masking edge sets: |n_t(Y)| <= tol |n_t(X)|
+  // When a Y step's line search fails (from the L-BFGS direction and again from -K^-1 g), the
+  // step freezes the admissible set again without the edges of slivers of Y, triangles below
+  // this fraction of their rest area, and carries on (ShellEnergyOptions::mask_tol; ours,
+  // issue 20). At a sliver the bending term of Eq. 9 is all but discontinuous: on SHREC'07
+  // busts no Y step accepted an iteration over the last 150 of 200 outer iterations, the map
+  // frozen while beta grew (docs/methods.md, "Slivers and the bending mask"). The membrane's
+  // barrier opens the slivers; the next Y step starts from the paper's set again. 0 = off.
+  double mask_tol = 1e-2;
   double beta_start = 1e3;        // mismatch penalty, Eq. 4/6 (Sec. 5.2: from 1e3 ...
   double beta_end = 2e5;          //   ... linearly to 2e5 ...
   int beta_ramp_iterations = 200; //   ... over the first 200 outer iterations)
@@ -206,6 +214,7 @@ struct ElasticResult {
   ElasticGuard guard_AB, guard_BA;   // which iterate each direction returns, and why
   BarycentricMap last_AB, last_BA;   // the last iterate, kept only when the guard returned another
   long long projection_rows_kept = 0;  // rows the safe projection kept at their previous value
+  int sliver_mask_steps = 0;  // Y steps that left slivers out of the bending term (mask_tol)
   // Flipped + collapsed triangles of the initial maps over their source's triangles (the larger
   // direction), and whether the tighter start (inner_f_tol_start) ran because of them.
   double initial_fold_fraction = 0;

@@ -28,6 +28,11 @@ struct ShellEnergyOptions {
   double log_eps = 1e-4;        // Sec. 4.1: -log det linearly extended below det G < eps
   double degenerate_tol = 1e-8; // Sec. 5.2: triangle degenerate if |n_t(Y)| <= tol * |n_t(X)|
                                 //   (n unnormalized: twice the area); such triangles mask edges
+  // freeze_mask(y, true) also leaves out the edges of slivers, |n_t(Y)| < mask_tol |n_t(X)|
+  // (ours, issue 20; the elastic Y steps ask for it when their line search fails, see
+  // ElasticOptions::mask_tol): a sliver's unit normal turns over under moves far smaller than
+  // a quasi-Newton step, so the bending term of Eq. 9 at its edges jumps between trial points.
+  double mask_tol = 1e-2;
   // Evaluate with OpenMP only from this many faces on (not from the paper). One evaluation
   // of a 5k-vertex mesh takes ~0.8 ms on one core; on the shared 2-core machine a parallel
   // region per evaluation made it 10-25x slower (threads wait for a descheduled partner),
@@ -69,7 +74,8 @@ class ShellEnergy {
   // them). A frozen-admissible edge whose face collapses exactly makes the energy +inf.
   // Returns true when the set differs from the one frozen by the previous call (or there
   // was none), so that a caller may keep an evaluation made under the previous set.
-  bool freeze_mask(const double* y);
+  // leave_out_slivers: also the edges of faces below mask_tol of their rest area.
+  bool freeze_mask(const double* y, bool leave_out_slivers = false);
   void unfreeze_mask() { frozen_ = false; }
   void set_weights(double alpha, double eta) { opt_.alpha = alpha; opt_.eta = eta; }
   const ShellEnergyOptions& options() const { return opt_; }
