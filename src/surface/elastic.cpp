@@ -479,6 +479,21 @@ bool backtrack(DeformationObjective& obj, Side& s, bool keep_orientation, double
   return false;
 }
 
+// A Y step stalled at the bending term's slivers (ElasticOptions::mask_tol): the admissible
+// set frozen again without their edges; false when there are none. The energy changed with
+// the set, so f, the gradient and parts are evaluated again and L-BFGS starts over.
+bool leave_out_slivers(DeformationObjective& obj, Side& s, const ElasticOptions& opt, double& f,
+                       EnergyParts& parts, int& evaluations) {
+  ElasticLbfgs& L = s.lbfgs;
+  if (!(opt.mask_tol > 0) || !s.shell.freeze_mask(L.x.data(), true)) return false;
+  ++s.sliver_mask_steps;
+  f = obj(L.x, L.g, s.shell_g.data());
+  ++evaluations;
+  parts = obj.last;
+  L.reset();
+  return true;
+}
+
 int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bijective,
                      const ElasticOptions& opt, double f_tol, EnergyParts& parts, int& evaluations) {
   const int n = int(s.X.rows());
@@ -551,21 +566,12 @@ int deformation_step(Side& s, const Side& t, double beta, double gamma, bool bij
           restarted = true;
           continue;
         }
-        // Stalled at the bending term's slivers (ElasticOptions::mask_tol): without their
-        // edges the energy changes, so evaluate it again and start over from -K^-1 g.
-        if (!slivers_out && opt.mask_tol > 0 && s.shell.freeze_mask(L.x.data(), true)) {
-          slivers_out = true;
-          ++s.sliver_mask_steps;
-          f = obj(L.x, L.g, s.shell_g.data());
-          ++evaluations;
-          parts = obj.last;
-          L.reset();
-          restarted = false;
-          last_decrease = 0;
-          if (!std::isfinite(f) || L.g.lpNorm<Eigen::Infinity>() < opt.inner_tol) break;
-          continue;
-        }
-        break;
+        if (slivers_out || !leave_out_slivers(obj, s, opt, f, parts, evaluations)) break;
+        slivers_out = true;
+        restarted = false;
+        last_decrease = 0;
+        if (!std::isfinite(f) || L.g.lpNorm<Eigen::Infinity>() < opt.inner_tol) break;
+        continue;
       }
       restarted = false;
       // steps without curvature pairs (H0 alone) may need a long backtrack: not a guide

@@ -162,6 +162,13 @@ ElasticResult run_from_maps(const GeneratedPair& pair, const BarycentricMap& P, 
   return elastic_correspondence(pair.A, pair.B, P, Q, o);
 }
 
+// Two bumpy spheres of different tessellations and their closest-point maps: a clean start.
+struct BumpyPair {
+  TriMesh A = bumpy_sphere(10, 14, 0.1, 0.0);
+  TriMesh B = bumpy_sphere(11, 13, 0.12, 0.7);
+  BarycentricMap P = project(A.V, B), Q = project(B.V, A);
+};
+
 // A fixed work budget for comparing two settings: `outer` outer iterations of at most `inner`
 // L-BFGS iterations per side, no stalled-progress stop.
 ElasticOptions fixed_budget(int outer, int inner) {
@@ -655,9 +662,9 @@ TEST(Elastic, RampInnerToleranceOnlyLoosensTheRamp) {
 // start then runs exactly as with no tighter start; the threshold 0 forces it (more
 // evaluations while it lasts); a start with collapsed triangles gets it.
 TEST(Elastic, TighterStartOnlyWhereTheStartFolds) {
-  TriMesh A = bumpy_sphere(10, 14, 0.1, 0.0);
-  TriMesh B = bumpy_sphere(11, 13, 0.12, 0.7);
-  const BarycentricMap P = project(A.V, B), Q = project(B.V, A);
+  const BumpyPair bp;
+  const TriMesh &A = bp.A, &B = bp.B;
+  const BarycentricMap &P = bp.P, &Q = bp.Q;
   ElasticOptions o;
   o.max_outer_iterations = 6;
   o.beta_ramp_iterations = 4;
