@@ -199,6 +199,11 @@ TEST(BimCli, ReportHasTheMapMetricsAndTheGeodesicErrorWithTruth) {
   EXPECT_EQ(run("surface-map " + A + " " + B + " -o " + t.p("inj") + " --method elastic --elastic-injective --symmetric"),
             2);
   EXPECT_FALSE(fs::exists(t.dir / "inj"));
+  // Fractions outside [0, 1] for the tighter start's fold threshold and the sliver mask: exit 2.
+  for (const std::string opt : {" --elastic-start-min-folds -1", " --elastic-mask-tol 2"}) {
+    EXPECT_EQ(run("surface-map " + A + " " + B + " -o " + t.p("frac") + " --method elastic" + opt), 2) << opt;
+    EXPECT_FALSE(fs::exists(t.dir / "frac"));
+  }
 }
 
 // The automatic pipeline (BIM, then elastic with the default bending weight) on a pair

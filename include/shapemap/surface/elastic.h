@@ -101,7 +101,7 @@ struct ElasticOptions {
   // flipped or collapsed (the larger of the two directions; issue 20 speed, our addition): a
   // start with a few isolated folds needs no far deviation, and at 10k vertices a side (1 of
   // 18,976 triangles flipped) the tighter start took 60% of the Y steps' time for the same
-  // map (docs/methods.md, "Speed at 10k vertices"). 0 = whenever inner_f_tol_start > 0.
+  // map (docs/methods.md, "Only where the start folds"). 0 = whenever inner_f_tol_start > 0.
   double inner_f_tol_start_min_folds = 1e-3;
   int lbfgs_memory = 10;          // L-BFGS history (the paper uses BFGS; see docs/methods.md)
   // Y-step L-BFGS with the initial inverse Hessian H0 = (theta K)^-1 (issue 20 speed, our

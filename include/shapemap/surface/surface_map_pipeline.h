@@ -39,7 +39,7 @@ struct ElasticSettings {
   bool no_precondition = false;   // ElasticOptions::precondition_stiffness = 0 (plain L-BFGS)
   double start_inner_f_tol = -1;  // ElasticOptions::inner_f_tol_start (default 1e-7; 0 = off)
   double start_min_folds = -1;    // ElasticOptions::inner_f_tol_start_min_folds (default 1e-3)
-  double mask_tol = -1;           // ElasticOptions::mask_tol (default 1e-2; 0 = the paper's mask)
+  double mask_tol = -1;           // ElasticOptions::mask_tol (default 1e-2; 0 = off)
   bool unit_first_step = false;   // ElasticOptions::interpolate_initial_step = false
   // Untangle the returned maps (surface/untangle.h): the images around flipped or collapsed
   // triangles slide on the target; kept per region only where the fold count falls.
