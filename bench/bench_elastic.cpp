@@ -3,7 +3,8 @@
 //  - the thin-shell energy W_def = alpha W_mem + eta W_bnd (Eq. 2, 7, 9), value + exact
 //    gradient, with the admissible-edge mask recomputed per evaluation and frozen (as in
 //    the Y steps of Algorithm 1), serial and with the OpenMP path forced on 2 threads, and
-//    value only;
+//    value only; the frozen case also at 25,000 vertices (the SHREC'07 busts' size), where
+//    ShellEnergyOptions::parallel_min_faces decides between the two paths;
 //  - 10 outer iterations of Algorithm 1 (bijective model, paper defaults, the ground-truth
 //    maps as initialization), i.e. the P/Q projections and the Y/Y~ L-BFGS steps.
 // Argument: number of OpenMP threads.
@@ -34,31 +35,38 @@ struct ShellCase {
   Eigen::MatrixXi F;
   std::vector<double> y;
 };
-const ShellCase& shell_case() {
-  static const ShellCase* c = [] {
-    auto* s = new ShellCase;
-    const TriMesh& A = pair5k().A;
-    s->X = unit_area_normalization(A).apply(A.V);
-    s->F = A.F;
-    const int n = int(s->X.rows());
-    s->y.resize(3 * size_t(n));
-    for (int i = 0; i < n; ++i) {
-      const double x = s->X(i, 0), y = s->X(i, 1), z = s->X(i, 2);
-      const double bump = 0.02 * std::sin(7 * x + 3 * y) * std::cos(5 * z);
-      s->y[3 * i] = 1.2 * x + bump;
-      s->y[3 * i + 1] = 0.9 * y - bump;
-      s->y[3 * i + 2] = z + 0.5 * bump;
-    }
-    return s;
-  }();
+ShellCase make_shell_case(const TriMesh& A) {
+  ShellCase c;
+  c.X = unit_area_normalization(A).apply(A.V);
+  c.F = A.F;
+  const int n = int(c.X.rows());
+  c.y.resize(3 * size_t(n));
+  for (int i = 0; i < n; ++i) {
+    const double x = c.X(i, 0), y = c.X(i, 1), z = c.X(i, 2);
+    const double bump = 0.02 * std::sin(7 * x + 3 * y) * std::cos(5 * z);
+    c.y[3 * i] = 1.2 * x + bump;
+    c.y[3 * i + 1] = 0.9 * y - bump;
+    c.y[3 * i + 2] = z + 0.5 * bump;
+  }
+  return c;
+}
+// large: the 25,000-vertex source instead of the 5,000-vertex one.
+const ShellCase& shell_case(bool large = false) {
+  if (large) {
+    static const ShellCase* c =
+        new ShellCase(make_shell_case(make_creature_pair(1, PairKind::NonIsometric, 25000).A));
+    return *c;
+  }
+  static const ShellCase* c = new ShellCase(make_shell_case(pair5k().A));
   return *c;
 }
 
 void BM_ShellEnergyValueGrad(benchmark::State& state) {
   omp_set_num_threads(int(state.range(0)));
-  const ShellCase& c = shell_case();
+  const ShellCase& c = shell_case(state.range(3) != 0);
   ShellEnergyOptions so;  // paper defaults: alpha 20, eta 0.1, lambda = mu = 1
-  if (state.range(2)) so.parallel_min_faces = 0;  // force the OpenMP path
+  if (state.range(2) == 1) so.parallel_min_faces = 0;  // force the OpenMP path
+  if (state.range(2) == 2) so.parallel_min_faces = 1 << 30;  // force the serial path
   ShellEnergy W(c.X, c.F, so);
   if (state.range(1)) W.freeze_mask(c.y.data());
   std::vector<double> g(c.y.size());
@@ -70,10 +78,11 @@ void BM_ShellEnergyValueGrad(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * int64_t(c.F.rows()));
   state.counters["faces"] = double(c.F.rows());
 }
-// Args: threads, frozen mask (0/1), forced OpenMP path (0/1; by default a mesh of this
-// size is evaluated serially, ShellEnergyOptions::parallel_min_faces).
+// Args: threads, frozen mask (0/1), path (0: the default, ShellEnergyOptions::
+// parallel_min_faces; 1: OpenMP forced; 2: serial forced), mesh (0: 5k vertices, 1: 25k).
 BENCHMARK(BM_ShellEnergyValueGrad)
-    ->Args({1, 0, 0})->Args({1, 1, 0})->Args({2, 1, 1})
+    ->Args({1, 0, 0, 0})->Args({1, 1, 0, 0})->Args({2, 1, 1, 0})
+    ->Args({2, 1, 2, 1})->Args({2, 1, 1, 1})->Args({2, 1, 0, 1})
     ->Unit(benchmark::kMicrosecond);
 
 void BM_ShellEnergyValueOnly(benchmark::State& state) {

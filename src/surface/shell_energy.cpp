@@ -372,10 +372,10 @@ bool ShellEnergy::freeze_mask(const double* y, bool leave_out_slivers) {
   frozen_ = false;
   const bool had = frozen_once_;
   std::vector<char>& deg = fdeg_;  // scratch (evaluate() rewrites it)
+  const double tol = leave_out_slivers ? std::max(opt_.degenerate_tol, opt_.mask_tol) : opt_.degenerate_tol;
   for (int f = 0; f < m; ++f) {
     const V3 x0 = row3(y, F_(f, 0)), x1 = row3(y, F_(f, 1)), x2 = row3(y, F_(f, 2));
     const double Nlen = (x1 - x0).cross(x2 - x0).norm();
-    const double tol = leave_out_slivers ? std::max(opt_.degenerate_tol, opt_.mask_tol) : opt_.degenerate_tol;
     deg[f] = !(Nlen > tol * nref_(f)) || nref_(f) == 0;
   }
   frozen_adm_.resize(k);
