@@ -38,8 +38,9 @@ struct ShellEnergyOptions {
   // region per evaluation made it 10-25x slower (threads wait for a descheduled partner),
   // so mid-size meshes run serially; even on an idle machine the parallel path was slower at
   // 8.5k faces (1,423 against 1,146 us, 5 Dec 2026) and no faster at 10k vertices a side.
-  // At the busts' 46.6k faces one evaluation is faster (4.73 against 6.33 ms), but the busts'
-  // Y steps with it were only 3-13% faster (two runs each, 6 Dec 2026), so the limit stays.
+  // At 46.6k faces (a generated 25k-vertex mesh) one evaluation is faster (4.73 against
+  // 6.33 ms), but the SHREC'07 busts' Y steps (50k faces a side) with the limit at 32k were
+  // only 3-13% faster (two runs each, 6 Dec 2026), so the limit stays.
   // Results are bitwise identical either way.
   int parallel_min_faces = 1 << 16;
 };
