@@ -408,7 +408,7 @@ def report(results, path):
         if "heads_up" in row:
             checks.append(("%s heads up (>= 90%% of each bust's top and bottom 15%% in the same half of the other, "
                            "both directions)" % pair, row["heads_up"] >= 0.9, "worst %.0f%%" % (100 * row["heads_up"])))
-        opt_stages = [s for s in row["stages"] if s[0] in ("boundary-fixed", "full")]
+        opt_stages = [s for s in row["stages"] if s[0] in ("boundary-fixed", "full", "full-reversible")]
         conv = all(s[1] in ("gradient", "decrease") for s in opt_stages)
         checks.append(("%s stages end on convergence" % pair, conv,
                        ", ".join("%s:%s" % (s[0], s[1]) for s in opt_stages)))

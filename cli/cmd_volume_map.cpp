@@ -230,6 +230,9 @@ void add_energy_weight_options(CLI::App* app, VolumeMapArgs& a) {
   app->add_option("--alpha", a.opt.alpha, "Eq. 25 rigidity weight alpha")
       ->check(non_negative())
       ->capture_default_str();
+  app->add_option("--alpha-final", a.opt.alpha_final,
+                  "Eq. 25 alpha of a second stage 4 run after the first converges at --alpha (< 0: off)")
+      ->capture_default_str();
   app->add_option("--gamma", a.opt.gamma, "Eq. 25 projection weight gamma")
       ->check(non_negative())
       ->capture_default_str();

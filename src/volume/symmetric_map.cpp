@@ -1399,6 +1399,7 @@ class SymmetricMapSolver {
     if (opt_.fix_boundary_first) alternate("boundary-fixed", true);          // stage 2
     repair("repair", opt_.repair_rings, opt_.repair_iterations, 1, 0, SigmaPenalty{0, 0});  // 3
     alternate("full", false);                                                // stage 4
+    if (opt_.alpha_final >= 0 && opt_.alpha_final != opt_.alpha) reversible_continuation();  // ours
     repair("post-repair", 0, opt_.post_repair_steps, opt_.post_repair_rounds,
            opt_.post_repair_fallback_rings, opt_.post_repair_penalty);       // stage 5
     if (opt_.land_on_target) land();                                         // ours
@@ -1441,8 +1442,8 @@ class SymmetricMapSolver {
                                                                                : opt_.newton_iterations;
   }
   void set_weights() {
-    e12_.set_weights(opt_.alpha, beta_, gamma_, opt_.backward_projection_scale);
-    e21_.set_weights(opt_.alpha, beta_, gamma_, opt_.backward_projection_scale);
+    e12_.set_weights(alpha_, beta_, gamma_, opt_.backward_projection_scale);
+    e21_.set_weights(alpha_, beta_, gamma_, opt_.backward_projection_scale);
   }
   double energy() { return e12_.evaluate(X12_) + e21_.evaluate(X21_); }
   void count_inversions(SymmetricMapStage& st) const {
@@ -1472,11 +1473,11 @@ class SymmetricMapSolver {
     // serial parts (the BVH refit, the conversion to barycentric rows) overlap.
     run_pair(
         [&] {
-          p12_.run(X12, X21, opt_.alpha, beta_, opt_.boundary_to_boundary, fix_boundary ? &bd1_ : nullptr,
+          p12_.run(X12, X21, alpha_, beta_, opt_.boundary_to_boundary, fix_boundary ? &bd1_ : nullptr,
                    P12_0_, P12_);
         },
         [&] {
-          p21_.run(X21, X12, opt_.alpha, beta_, opt_.boundary_to_boundary, fix_boundary ? &bd2_ : nullptr,
+          p21_.run(X21, X12, alpha_, beta_, opt_.boundary_to_boundary, fix_boundary ? &bd2_ : nullptr,
                    P21_0_, P21_);
         },
         two_threads_available());
@@ -1828,6 +1829,15 @@ class SymmetricMapSolver {
     report(progress_, "volume-map/land-on-target", 1.0);
   }
 
+  // Stage 4 again at alpha_final from the map it converged to (SymmetricVolumeMapOptions::
+  // alpha_final); stage 5 and the landing at alpha: at alpha_final they left a part of the
+  // target's boundary uncovered on cat -> lion (d^max 2.5x, docs/methods.md).
+  void reversible_continuation() {
+    alpha_ = opt_.alpha_final;
+    alternate("full-reversible", false);
+    alpha_ = opt_.alpha;
+  }
+
   // Final Eq. 25 terms (unit-volume frame), outputs in the targets' original coordinates.
   SymmetricVolumeMapResult finish() {
     set_weights();
@@ -1877,6 +1887,7 @@ class SymmetricMapSolver {
   std::vector<std::vector<int>> vv1_, vv2_, vt1_, vt2_;
   int global_iter_ = 0;
   double beta_ = 0, gamma_ = 0;
+  double alpha_ = opt_.alpha;  // Eq. 25's alpha now (SymmetricVolumeMapOptions::alpha_final)
   BarycentricMap final12_, final21_;  // the map files when landing
   SymmetricVolumeMapResult res_;
 };

@@ -287,7 +287,7 @@ void surface_init(VolumeInput& inA, VolumeInput& inB, const VolumeMapRequest& re
 }
 
 nlohmann::json parameters_json(const SymmetricVolumeMapOptions& o, const std::string& init_detail) {
-  return {{"init", init_detail}, {"alpha", o.alpha}, {"gamma", o.gamma},
+  return {{"init", init_detail}, {"alpha", o.alpha}, {"alpha_final", o.alpha_final}, {"gamma", o.gamma},
           {"beta_start", o.beta_start}, {"beta_end", o.beta_end},
           {"beta_ramp_iterations", o.beta_ramp_iterations},
           {"gamma_start", o.gamma_start}, {"backward_projection_scale", o.backward_projection_scale},
