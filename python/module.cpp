@@ -165,6 +165,7 @@ py::dict surface_map(const RowMatrixXd& VA, const RowMatrixXi& FA, const RowMatr
 SymmetricVolumeMapOptions volume_options(const py::dict& o) {
   SymmetricVolumeMapOptions v;
   v.alpha = o["alpha"].cast<double>();
+  v.alpha_final = o["alpha_final"].cast<double>();
   v.gamma = o["gamma"].cast<double>();
   v.beta_start = o["beta_start"].cast<double>();
   v.beta_end = o["beta_end"].cast<double>();
@@ -395,6 +396,7 @@ PYBIND11_MODULE(_shapemap, m) {
     const SymmetricVolumeMapOptions o;
     py::dict d;
     d["alpha"] = o.alpha;
+    d["alpha_final"] = o.alpha_final;
     d["gamma"] = o.gamma;
     d["beta_start"] = o.beta_start;
     d["beta_end"] = o.beta_end;

@@ -219,7 +219,8 @@ def surface_map(VA, FA, VB, FB, method="bim", landmarks=None, init=None, init_re
 
 
 def volume_map(VA, TA, VB, TB, init=None, landmarks=None, surface_map=None, tets=0, auto_surface_map="elastic",
-               reverse_candidates=True, alpha=None, gamma=None, beta_start=None, beta_end=None, max_iterations=None, solver="newton",
+               reverse_candidates=True, alpha=None, alpha_final=None, gamma=None, beta_start=None, beta_end=None,
+               max_iterations=None, solver="newton",
                boundary_fixed_stage="auto", interior_init="closest", land_on_target=True, seed=1, threads=0, strict=False, names=("A", "B"),
                progress=None):
     """Symmetric volume map (`shapemap volume-map`) between two tet meshes (T: m x 4), or two
@@ -233,7 +234,9 @@ def volume_map(VA, TA, VB, TB, init=None, landmarks=None, surface_map=None, tets
     landmark start; a note says so), "surface-map" when surface_map is, else "auto". interior_init:
     "closest" (Sec. 5.1) or "harmonic" (the boundary's images extended harmonically).
     reverse_candidates (init "auto" without landmarks): the less confident BIM direction takes the
-    inverse of the other's blend, as surface_map does (False: each direction's own blend). Returns a Map
+    inverse of the other's blend, as surface_map does (False: each direction's own blend). alpha_final
+    (`--alpha-final`): the alpha of a second stage 4 run from the map found at alpha (negative: none).
+    Returns a Map
     A -> B with .reverse; .mesh_A / .mesh_B are the tet meshes the maps index, .X the
     optimized positions.
     """
@@ -245,6 +248,7 @@ def volume_map(VA, TA, VB, TB, init=None, landmarks=None, surface_map=None, tets
                 names=(str(names[0]), str(names[1])),
                 land_on_target=bool(land_on_target),
                 alpha=d["alpha"] if alpha is None else float(alpha),
+                alpha_final=d["alpha_final"] if alpha_final is None else float(alpha_final),
                 gamma=d["gamma"] if gamma is None else float(gamma),
                 beta_start=d["beta_start"] if beta_start is None else float(beta_start),
                 beta_end=d["beta_end"] if beta_end is None else float(beta_end),

@@ -163,15 +163,19 @@ def _pair_landmarks(pair, n):
     return (VA, TA), (VB, TB), LA, LB
 
 
-def test_cli_and_module_same_volume_map(cli, pair, tmp_path):
+@pytest.mark.parametrize("alpha_final", [None, -1.0])
+def test_cli_and_module_same_volume_map(cli, pair, tmp_path, alpha_final):
     (VA, TA), (VB, TB), LA, LB = _pair_landmarks(pair, 20)
     np.savetxt(tmp_path / "LA.txt", LA, fmt="%d")
     np.savetxt(tmp_path / "LB.txt", LB, fmt="%d")
+    extra = () if alpha_final is None else ("--alpha-final", alpha_final)
     cli("--seed", 1, "volume-map", pair / "A.vtk", pair / "B.vtk", "--landmarks", tmp_path / "LA.txt",
-        tmp_path / "LB.txt", "--max-iterations", 3, "-o", tmp_path / "out")
+        tmp_path / "LB.txt", "--max-iterations", 3, *extra, "-o", tmp_path / "out")
     # The same default initialization: landmarks when given (20 distinct pairs, enough for it).
-    m = shapemap.volume_map(VA, TA, VB, TB, landmarks=(LA, LB), max_iterations=3, seed=1)
+    m = shapemap.volume_map(VA, TA, VB, TB, landmarks=(LA, LB), max_iterations=3, seed=1, alpha_final=alpha_final)
     assert m.report["parameters"]["init"].startswith("landmarks"), m.report["parameters"]["init"]
+    stages = [s["name"] for s in m.report["algorithm_stages"]]
+    assert ("full-reversible" in stages) == (alpha_final is None), stages
     shapemap.write_map(tmp_path / "py_AB.txt", m)
     shapemap.write_map(tmp_path / "py_BA.txt", m.reverse)
     for d in ("AB", "BA"):
