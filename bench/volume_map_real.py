@@ -34,8 +34,9 @@ positions X, d^max and d^avg (x1e-2), mean |det J^|, E_R and E_ARAP (x1e-3), n_i
 files, and the run's time (the optimization alone and the command), peak memory, the stages'
 stop reasons. Then the issue's targets, newton against "before" (else lbfgs) on each real pair:
 d^max, d^avg <= 1/2, E_R <= 1/5, n_inv <= 5, map files' n_inv = X's, every stage stopped by
-its convergence test; and time: <= 60 s for gen-30k, <= 300 s for gen-100k, <= 4 GB; on the
-busts, heads up (bench/surface_real.py's heads_up on the map files: >= 90%).
+its convergence test (stages 2, 4 and stage 4's second run at --alpha-final); and time: <= 60 s
+for gen-30k, <= 300 s for gen-100k, <= 4 GB; on the busts, heads up (bench/surface_real.py's
+heads_up on the map files: >= 90%).
 Generated pairs also get a reference row "exact": the generator's map (truth_vol_AB.txt) with
 B -> A its piecewise-linear inverse, evaluated like the others: what two piecewise-linear
 maps on these meshes can reach (E_R above all; docs/methods.md, "What E_R measures").
