@@ -348,6 +348,29 @@ void add_post_repair_and_landing_options(CLI::App* app, VolumeMapArgs& a) {
                     "vertices left off the target")
       ->capture_default_str()
       ->check(CLI::Range(0, 20));
+  app->add_flag("--no-land-return", [&a](std::int64_t) { a.opt.land_return_rows = false; },
+                "Landing, last: do not put boundary vertices that the repairs left inside the target "
+                "back toward its boundary (ours)");
+  app->add_option("--land-reconcile-rounds", a.opt.land_reconcile_rounds,
+                    "Landing, last: rounds that make the two maps' boundaries mutually inverse (Eq. 18 on "
+                    "the boundary; ours; 0 = off)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 50));
+  app->add_option("--land-reconcile-gap", a.opt.land_reconcile_gap,
+                    "Landing's reconciliation: a move is refused when it leaves a vertex of the target's "
+                    "boundary farther than this many mean edges from the image, and farther than before")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 100.0));
+  app->add_option("--land-reconcile-det", a.opt.land_reconcile_det,
+                    "Landing's reconciliation: a move is refused when a tet of the moved vertex keeps less "
+                    "than this fraction of its det J")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1.0));
+  app->add_option("--land-reconcile-arap", a.opt.land_reconcile_arap,
+                    "Landing's reconciliation: a move is refused when the ARAP energy (Eq. 20) of the moved "
+                    "vertex's tets rises by more than this fraction of itself")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1000.0));
   app->add_option("--land-pull-rounds", a.opt.land_pull_rounds,
                     "Landing with the barrier: rounds that pull images still outside the target to "
                     "points just inside it (ours; 0 = off)")

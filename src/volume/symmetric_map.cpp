@@ -12,6 +12,9 @@
 #include "shapemap/task_pair.h"
 #include "shapemap/timing.h"
 #include "shapemap/volume/foldover_free.h"
+#include "shapemap/volume/reconcile_boundary.h"
+#include "shapemap/volume/return_to_boundary.h"
+#include "shapemap/volume/target_coverage.h"
 #include "shapemap/volume/untangle.h"
 #include <cstdlib>
 #include <Eigen/Dense>
@@ -881,6 +884,34 @@ bool fit_by_insetting_neighbours(int v, const Eigen::RowVector3d& p, const Det& 
   return true;
 }
 
+// det J of tet k of X.
+double det_J(const ArapEnergy& arap, const Eigen::MatrixXd& X, int k) {
+  const Eigen::MatrixXi& T = arap.tets();
+  Eigen::Matrix3d Ds;
+  for (int j = 0; j < 3; ++j) Ds.col(j) = (X.row(T(k, j + 1)) - X.row(T(k, 0))).transpose();
+  return (Ds * arap.rest_inverse()[k]).determinant();
+}
+
+// Puts row v of X at p when its tets positive before stay so (det J above
+// min(kLandMinDet, before), the projection's rule, and above `ratio` x before); returns
+// whether it moved.
+bool move_keeping_positive(const ArapEnergy& arap, const std::vector<std::vector<int>>& vt, Eigen::MatrixXd& X, int v,
+                           const Eigen::RowVector3d& p, double ratio = 0) {
+  std::vector<std::pair<int, double>> before;
+  for (int k : vt[v]) {
+    const double d = det_J(arap, X, k);
+    if (d > 0) before.emplace_back(k, d);
+  }
+  const Eigen::RowVector3d x0 = X.row(v);
+  X.row(v) = p;
+  for (const auto& [k, d0] : before)
+    if (!(det_J(arap, X, k) > std::max(ratio * d0, std::min(kLandMinDet, d0)))) {
+      X.row(v) = x0;
+      return false;
+    }
+  return true;
+}
+
 // The landing's projection with the barrier (ours): each of `rows` (boundary vertices of
 // M_i, hits: their closest points on dM_j) goes to its closest point p, unless that would
 // flatten or turn over one of its tets (det J <= 0, tets positive before; e.g. a tet with
@@ -897,23 +928,10 @@ void project_keeping_positive(const ArapEnergy& arap, const std::vector<std::vec
                               Eigen::MatrixXd& X, std::vector<int>& on_surface,
                               std::vector<int>& failing) {
   const Eigen::MatrixXi& T = arap.tets();
-  auto det = [&](int k) {
-    Eigen::Matrix3d Ds;
-    for (int j = 0; j < 3; ++j) Ds.col(j) = (X.row(T(k, j + 1)) - X.row(T(k, 0))).transpose();
-    return (Ds * arap.rest_inverse()[k]).determinant();
-  };
+  auto det = [&](int k) { return det_J(arap, X, k); };
   // The closest point on dM_j and the inner corner of the target tet behind it.
   auto target_of = [&](const ClosestPointResult& h, Eigen::RowVector3d& p, Eigen::RowVector3d& apex) {
-    int face[3];
-    p.setZero();
-    for (int c = 0; c < 3; ++c) {
-      face[c] = bj.to_volume(bj.surface.F(h.elem, c));
-      p += h.bary(c) * Mj.V.row(face[c]);
-    }
-    for (int q = 0; q < 4; ++q) {
-      const int w = Mj.T(bj.face_tet(h.elem), q);
-      if (w != face[0] && w != face[1] && w != face[2]) apex = Mj.V.row(w);
-    }
+    boundary_point_and_apex(Mj, bj, h, p, apex);
   };
   std::vector<char> is_surface(X.rows(), 0);
   for (int v : on_surface) is_surface[v] = 1;
@@ -968,7 +986,8 @@ void project_keeping_positive(const ArapEnergy& arap, const std::vector<std::vec
 //  4. a repair of inverted tets in which boundary vertices slide along dM_j;
 //  5. the located map's inverted tets untangled with every image held in M_j;
 //  6. flat tets on flat parts of dM_j lifted;
-//  7. what is still inverted untangled by the regularized energy of Garanzha et al. 2021.
+//  7. what is still inverted untangled by the regularized energy of Garanzha et al. 2021;
+//  8. boundary vertices that steps 4-7 left inside M_j put back on dM_j where they can be.
 // The located result replaces X unless it inverts more tets than X located as it was
 // ("snapped"); `located` receives the chosen map and X its positions.
 class Landing {
@@ -1041,6 +1060,7 @@ class Landing {
       if (best_count > 0) lift_flat_tets(surface_rows, best_map, best, best_count);
     }
     if (landed && best_count > 0) untangle_regularized(surface_rows, best_map, best, best_count);
+    if (landed) return_to_boundary(best_map, best, best_count);
     X = best;
     located = best_map;
     return landed;
@@ -1117,6 +1137,30 @@ class Landing {
     std::sort(surface_rows.begin(), surface_rows.end());
     st_.land_unprojected += int(brows_.size() - surface_rows.size());
     return surface_rows;
+  }
+
+  // Step 8 (ours), on the located map: boundary rows that the steps before left inside M_j
+  // go back to dM_j, or toward it, where their tets stay positive as in the projection
+  // (return_to_boundary.h); the map is located again.
+  void return_to_boundary(BarycentricMap& best_map, Eigen::MatrixXd& best, int best_count) {
+    if (!opt_.land_return_rows) return;
+    Eigen::MatrixXd Y = best;
+    std::vector<int> rows;  // on dM_j afterwards
+    const int moved = shapemap::return_to_boundary(
+        Y, brows_, Mj_, bj_, target_, std::vector<double>(std::begin(kLandInset), std::end(kLandInset)),
+        1e-9 * mean_target_edge(), [&](int v, const Eigen::RowVector3d& q) { return move_keeping_positive(Y, v, q); },
+        rows);
+    if (moved == 0) return;
+    BarycentricMap m = locate_in_tets(Mj_, Y, rows);
+    Eigen::MatrixXd P = map_positions(m, Mj_.V, Mj_.T);
+    if (count_inverted(e_.arap(), P) > best_count) return;
+    best_map = std::move(m);
+    best = std::move(P);
+    st_.land_returned += moved;
+  }
+
+  bool move_keeping_positive(Eigen::MatrixXd& X, int v, const Eigen::RowVector3d& p) const {
+    return shapemap::move_keeping_positive(e_.arap(), vt_, X, v, p);
   }
 
   // Step 3b: images still outside M_j after the projection (boundary vertices that no local
@@ -1813,11 +1857,13 @@ class SymmetricMapSolver {
       landed[dir] = landing.run(dir == 0 ? X12_ : X21_, dir == 0 ? final12_ : final21_);
     };
     run_pair([&] { land_direction(0); }, [&] { land_direction(1); }, factorizations_in_parallel());
+    if (landed[0] && landed[1]) st.land_reconciled = reconcile_boundaries();
     for (int dir = 0; dir < 2; ++dir) {
       st.iterations += part[dir].iterations;
       st.lbfgs_iterations += part[dir].lbfgs_iterations;
       st.evaluations += part[dir].evaluations;
       st.land_unprojected += part[dir].land_unprojected;
+      st.land_returned += part[dir].land_returned;
       for (int k = 0; k < 4; ++k) st.newton_seconds[k] += part[dir].newton_seconds[k];
       st.stop_reason += std::string(dir == 0 ? "AB " : ", BA ") +
                         (landed[dir] ? "landed" : "snapped (landing inverted more)");
@@ -1827,6 +1873,85 @@ class SymmetricMapSolver {
     st.seconds = seconds_since(t0);
     res_.stages.push_back(st);
     report(progress_, "volume-map/land-on-target", 1.0);
+  }
+
+  // Ours, the landing's end: the two maps' boundaries made mutually inverse by
+  // land_reconcile_rounds of reconcile_boundary_step, each move kept where the moved
+  // vertex's tets keep land_reconcile_det of their det J, their ARAP energy (Eq. 20) rises
+  // by at most land_reconcile_arap of itself, and the target stays covered
+  // (land_reconcile_gap, target_coverage.h); per round each map is located again and kept
+  // when it inverts no more tets than before. Returns the moves kept.
+  int reconcile_boundaries() {
+    const TetBoundary& b1 = e12_.boundary_i();
+    const TetBoundary& b2 = e12_.boundary_j();
+    const ClosestPoint3 on1(b1.surface.V, b1.surface.F), on2(b2.surface.V, b2.surface.F);
+    auto mean_edge = [](const TriMesh& m) {
+      double e = 0;
+      for (int f = 0; f < m.num_faces(); ++f) e += (m.V.row(m.F(f, 0)) - m.V.row(m.F(f, 1))).norm();
+      return e / std::max(1, m.num_faces());
+    };
+    const double edge = 0.5 * (mean_edge(b1.surface) + mean_edge(b2.surface));
+    auto on_target = [&](const TetBoundary& b, const Eigen::MatrixXd& X, const ClosestPoint3& target) {
+      std::vector<char> on(X.rows(), 0);
+      Eigen::MatrixXd Q(b.to_volume.size(), 3);
+      for (Eigen::Index r = 0; r < Q.rows(); ++r) Q.row(r) = X.row(b.to_volume(r));
+      const std::vector<ClosestPointResult> h = target.query(Q);
+      for (Eigen::Index r = 0; r < Q.rows(); ++r) on[b.to_volume(r)] = h[size_t(r)].sqdist <= 1e-18 * edge * edge;
+      return on;
+    };
+    auto project = [](const ClosestPoint3& target) {
+      return [&target](const Eigen::RowVector3d& x) {
+        const ClosestPointResult h = target.query(Eigen::Vector3d(x.transpose()));
+        Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
+        for (int c = 0; c < 3; ++c) p += h.bary(c) * target.vertices().row(target.elements()(h.elem, c));
+        return p;
+      };
+    };
+    std::vector<std::pair<int, Eigen::RowVector3d>> moves12, moves21;
+    int kept = 0;
+    for (int round = 0; round < opt_.land_reconcile_rounds; ++round) {
+      const std::vector<char> on12 = on_target(b1, X12_, on2), on21 = on_target(b2, X21_, on1);
+      reconcile_boundary_step(BoundaryMapSide{M1_.V, b1, X12_, on12}, BoundaryMapSide{M2_.V, b2, X21_, on21},
+                              project(on1), project(on2), moves12, moves21);
+      int moved = 0;
+      auto apply = [&](const std::vector<std::pair<int, Eigen::RowVector3d>>& moves, const ArapEnergy& arap,
+                       const std::vector<std::vector<int>>& vt, const TetMesh& Mj, const TetBoundary& bi,
+                       const TetBoundary& bj, const std::vector<char>& on, Eigen::MatrixXd& X,
+                       BarycentricMap& located) {
+        Eigen::MatrixXd Y = X;
+        const std::vector<int> brows(bi.to_volume.data(), bi.to_volume.data() + bi.to_volume.size());
+        TargetCoverage coverage(Y, bi.surface.F, brows, bj.surface.V);
+        int n = 0;
+        for (const auto& [v, p] : moves)
+          n += coverage.move(Y, coverage.surface_vertex(v),
+                             [&, v = v, p = p](int) {
+                               const double e0 = arap.energy(Y, vt[v], nullptr);
+                               const Eigen::RowVector3d y0 = Y.row(v);
+                               if (!move_keeping_positive(arap, vt, Y, v, p, opt_.land_reconcile_det)) return false;
+                               if (arap.energy(Y, vt[v], nullptr) > (1 + opt_.land_reconcile_arap) * e0) {
+                                 Y.row(v) = y0;
+                                 return false;
+                               }
+                               return true;
+                             },
+                             opt_.land_reconcile_gap * edge);
+        if (n == 0) return;
+        std::vector<int> rows;
+        for (Eigen::Index r = 0; r < bi.to_volume.size(); ++r)
+          if (on[bi.to_volume(r)]) rows.push_back(bi.to_volume(r));
+        BarycentricMap m = locate_in_tets(Mj, Y, rows);
+        Eigen::MatrixXd P = map_positions(m, Mj.V, Mj.T);
+        if (count_inverted(arap, P) > count_inverted(arap, X)) return;
+        X = std::move(P);
+        located = std::move(m);
+        moved += n;
+      };
+      apply(moves12, e12_.arap(), vt1_, M2_, b1, b2, on12, X12_, final12_);
+      apply(moves21, e21_.arap(), vt2_, M1_, b2, b1, on21, X21_, final21_);
+      kept += moved;
+      if (moved == 0) break;
+    }
+    return kept;
   }
 
   // Stage 4 again at alpha_final from the map it converged to (SymmetricVolumeMapOptions::

@@ -358,14 +358,15 @@ TEST(SymmetricVolumeMap, LandmarkPairQuality) {
   }
   // Thresholds about 2-4x the figures measured with the Newton X-step and the landing
   // (issue 19): d_avg 3.0e-4 / 2.0e-4, d_max 6.6e-3 / 6.4e-3, det 0.995 / 0.996, truth 0.014
-  // (before the landing: d_avg 1.3e-3, truth 0.018); E_R 7.3e-6 / 6.5e-6 with the second
-  // stage 4 at alpha_final (1.2e-5 / 1.1e-5 without).
+  // (before the landing: d_avg 1.3e-3, truth 0.018); E_R 2.9e-6 / 2.9e-6 with the landed
+  // boundaries reconciled (7.3e-6 / 6.5e-6 without; 1.2e-5 / 1.1e-5 without the second
+  // stage 4 at alpha_final either).
   for (const VolumeMapMetrics* m : {&m12, &m21}) {
     EXPECT_LE(m->n_inv, 3);
     EXPECT_LT(m->d_avg, 0.001);
     EXPECT_LT(m->d_max, 0.015);
     EXPECT_GT(m->det_mean, 0.98);
-    EXPECT_LT(m->E_R, 2.5e-5);
+    EXPECT_LT(m->E_R, 1e-5);
   }
   EXPECT_LT(m12.truth_mean, 0.02);
 }
@@ -490,6 +491,49 @@ TEST(SymmetricVolumeMap, LowerAlphaContinuationLowersReversibilityEnergy) {
   EXPECT_LT(m_on.second.E_R, 0.9 * m_off.second.E_R);
   EXPECT_LT(m_on.first.truth_mean, 1.1 * m_off.first.truth_mean);
   EXPECT_LE(m_on.first.n_inv + m_on.second.n_inv, 3);
+}
+
+// SymmetricVolumeMapOptions::land_reconcile_rounds: the landed maps' boundaries made
+// mutually inverse lower E_R of the map files in both directions (the boundary holds most
+// of it), with no tet turned over, E_ARAP within the guard and the target no less covered
+// (d^max, up to the coverage guard's allowance).
+TEST(SymmetricVolumeMap, ReconciledBoundariesLowerReversibilityEnergy) {
+  const EndToEnd& e = end_to_end();
+  const BarycentricMap i12 = landmark_initial_map(e.A, e.B, e.LA, e.LB);
+  const BarycentricMap i21 = landmark_initial_map(e.B, e.A, e.LB, e.LA);
+  SymmetricVolumeMapOptions o;
+  ASSERT_GT(o.land_reconcile_rounds, 0);
+  o.land_reconcile_rounds = 0;
+  const SymmetricVolumeMapResult off = symmetric_volume_map(e.A, e.B, i12, i21, o);
+  const SymmetricVolumeMapResult& on = e.r;
+  EXPECT_GT(on.stages.back().land_reconciled, 0);
+  EXPECT_EQ(off.stages.back().land_reconciled, 0);
+  auto metrics = [&](const SymmetricVolumeMapResult& r) {
+    return std::make_pair(volume_map_metrics(e.A, e.B, r.X12, &r.map12, &r.X21),
+                          volume_map_metrics(e.B, e.A, r.X21, &r.map21, &r.X12));
+  };
+  const auto m_on = metrics(on), m_off = metrics(off);
+  std::printf("E_R %.3g / %.3g reconciled, %.3g / %.3g not; d^max %.3g / %.3g vs %.3g / %.3g\n", m_on.first.E_R,
+              m_on.second.E_R, m_off.first.E_R, m_off.second.E_R, m_on.first.d_max, m_on.second.d_max,
+              m_off.first.d_max, m_off.second.d_max);
+  EXPECT_LT(m_on.first.E_R, 0.9 * m_off.first.E_R);
+  EXPECT_LT(m_on.second.E_R, 0.9 * m_off.second.E_R);
+  EXPECT_LE(m_on.first.n_inv, m_off.first.n_inv);
+  EXPECT_LE(m_on.second.n_inv, m_off.second.n_inv);
+  // Each move raises the ARAP energy of its tets by at most land_reconcile_arap of it.
+  EXPECT_LE(m_on.first.E_arap, (1 + o.land_reconcile_arap) * m_off.first.E_arap);
+  EXPECT_LE(m_on.second.E_arap, (1 + o.land_reconcile_arap) * m_off.second.E_arap);
+  // The coverage guard lets a vertex of the target's boundary drift up to land_reconcile_gap
+  // mean boundary edges from the image (d^max is over the target's diagonal).
+  auto allowed = [&](const TetMesh& M) {
+    const TetBoundary b = boundary_surface(M);
+    double edge = 0;
+    for (int f = 0; f < b.surface.num_faces(); ++f)
+      edge += (b.surface.V.row(b.surface.F(f, 0)) - b.surface.V.row(b.surface.F(f, 1))).norm();
+    return 1.2 * o.land_reconcile_gap * edge / b.surface.num_faces() / bbox_diagonal(M.V);
+  };
+  EXPECT_LE(m_on.first.d_max, std::max(m_off.first.d_max * 1.001, allowed(e.B)));
+  EXPECT_LE(m_on.second.d_max, std::max(m_off.second.d_max * 1.001, allowed(e.A)));
 }
 
 // Landing on the target (issue 19): X is exactly what the map files hold, and the boundary

@@ -158,6 +158,22 @@ struct SymmetricVolumeMapOptions {
   // (foldover_free.h) around them, with 1, 2, 4, ... up to this many rings of vertices free,
   // each kept when it inverts fewer tets (ours). 0 = off.
   int land_regularized_rings = 8;
+  // Last (ours): boundary vertices that the repairs left inside M_j go back to dM_j, or
+  // toward it, where their tets stay positive (d^, Eq. 27-28).
+  bool land_return_rows = true;
+  // Last (ours): rounds that make the two maps' boundaries mutually inverse (Eq. 18 on the
+  // boundary; reconcile_boundary.h). 0 = off.
+  int land_reconcile_rounds = 6;
+  // A move of the reconciliation is refused when it leaves a vertex of dM_j farther than
+  // this many mean boundary edges from the image of dM_i, and farther than it was
+  // (target_coverage.h).
+  double land_reconcile_gap = 0.1;
+  // ... and when one of the moved vertex's tets keeps less than this fraction of its det J,
+  double land_reconcile_det = 0.5;
+  // ... or their ARAP energy (Eq. 20) rises by more than this fraction of itself: the
+  // reconciliation trades E_ARAP for E_R (cat -> lion, without this guard: E_R -35%, E_ARAP
+  // +8%; docs/methods.md, "Mutually inverse boundaries").
+  double land_reconcile_arap = 0.1;
   // Sec. 5.1 copies each interior vertex's target from its closest boundary vertex, which
   // folds the interior of X onto its boundary. Ours: with this set the interior rows of X
   // start at the harmonic extension of its boundary rows instead (harmonic_extension.h), so
@@ -187,6 +203,8 @@ struct SymmetricMapStage {
   int cg_iterations = 0;     // joint X-steps: conjugate-gradient iterations of the solves
   int factorizations = 0;    // joint X-steps: numeric Cholesky factorizations (newton_refactor_cg)
   int land_unprojected = 0;  // landing: boundary vertices put inside M_j or left, not on dM_j
+  int land_returned = 0;     // landing: boundary vertices put back from inside M_j toward dM_j
+  int land_reconciled = 0;   // landing: boundary images moved to make the two maps mutually inverse
   std::string stop_reason;   // "gradient", "decrease", "iterations" (stages 2, 4)
   std::vector<double> energy_history, gradient_history;  // per outer iteration
 };
