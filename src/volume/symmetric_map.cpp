@@ -884,6 +884,13 @@ bool fit_by_insetting_neighbours(int v, const Eigen::RowVector3d& p, const Det& 
   return true;
 }
 
+// Mean length of each face's first edge: the landing's length scale on a boundary surface.
+double mean_face_edge(const TriMesh& m) {
+  double edge = 0;
+  for (int f = 0; f < m.num_faces(); ++f) edge += (m.V.row(m.F(f, 0)) - m.V.row(m.F(f, 1))).norm();
+  return edge / std::max(1, m.num_faces());
+}
+
 // det J of tet k of X.
 double det_J(const ArapEnergy& arap, const Eigen::MatrixXd& X, int k) {
   const Eigen::MatrixXi& T = arap.tets();
@@ -1259,12 +1266,7 @@ class Landing {
     }
   }
 
-  double mean_target_edge() const {
-    const Eigen::MatrixXi& F = bj_.surface.F;
-    double edge = 0;
-    for (int f = 0; f < F.rows(); ++f) edge += (bj_.surface.V.row(F(f, 0)) - bj_.surface.V.row(F(f, 1))).norm();
-    return edge / double(std::max<Eigen::Index>(F.rows(), 1));
-  }
+  double mean_target_edge() const { return mean_face_edge(bj_.surface); }
 
   // Y (a moved copy of the located `best`) located in M_j, rows that moved where they are now
   // and the others as before; it replaces best when it inverts fewer tets.
@@ -1885,12 +1887,7 @@ class SymmetricMapSolver {
     const TetBoundary& b1 = e12_.boundary_i();
     const TetBoundary& b2 = e12_.boundary_j();
     const ClosestPoint3 on1(b1.surface.V, b1.surface.F), on2(b2.surface.V, b2.surface.F);
-    auto mean_edge = [](const TriMesh& m) {
-      double e = 0;
-      for (int f = 0; f < m.num_faces(); ++f) e += (m.V.row(m.F(f, 0)) - m.V.row(m.F(f, 1))).norm();
-      return e / std::max(1, m.num_faces());
-    };
-    const double edge = 0.5 * (mean_edge(b1.surface) + mean_edge(b2.surface));
+    const double edge = 0.5 * (mean_face_edge(b1.surface) + mean_face_edge(b2.surface));
     auto on_target = [&](const TetBoundary& b, const Eigen::MatrixXd& X, const ClosestPoint3& target) {
       std::vector<char> on(X.rows(), 0);
       Eigen::MatrixXd Q(b.to_volume.size(), 3);
