@@ -356,6 +356,9 @@ void add_post_repair_and_landing_options(CLI::App* app, VolumeMapArgs& a) {
                     "the boundary; ours; 0 = off)")
       ->capture_default_str()
       ->check(CLI::Range(0, 50));
+  app->add_flag("--no-land-interior-final", [&a](std::int64_t) { a.opt.land_interior_final = false; },
+                "Landing, last: do not relax both interiors together at --alpha-final with the landed "
+                "boundaries held (ours)");
   app->add_option("--land-reconcile-gap", a.opt.land_reconcile_gap,
                     "Landing's reconciliation: a move is refused when it leaves a vertex of the target's "
                     "boundary farther than this many mean edges from the image, and farther than before")

@@ -1449,6 +1449,8 @@ class SymmetricMapSolver {
     repair("post-repair", 0, opt_.post_repair_steps, opt_.post_repair_rounds,
            opt_.post_repair_fallback_rings, opt_.post_repair_penalty);       // stage 5
     if (opt_.land_on_target) land();                                         // ours
+    if (landed_both_ && opt_.land_interior_final && opt_.alpha_final >= 0 && opt_.alpha_final != opt_.alpha)
+      relax_interiors_final();                                               // ours
     return finish();
   }
 
@@ -1520,11 +1522,11 @@ class SymmetricMapSolver {
     run_pair(
         [&] {
           p12_.run(X12, X21, alpha_, beta_, opt_.boundary_to_boundary, fix_boundary ? &bd1_ : nullptr,
-                   P12_0_, P12_);
+                   *held12_, P12_);
         },
         [&] {
           p21_.run(X21, X12, alpha_, beta_, opt_.boundary_to_boundary, fix_boundary ? &bd2_ : nullptr,
-                   P21_0_, P21_);
+                   *held21_, P21_);
         },
         two_threads_available());
     e12_.set_maps(P12_, P21_);
@@ -1859,7 +1861,8 @@ class SymmetricMapSolver {
       landed[dir] = landing.run(dir == 0 ? X12_ : X21_, dir == 0 ? final12_ : final21_);
     };
     run_pair([&] { land_direction(0); }, [&] { land_direction(1); }, factorizations_in_parallel());
-    if (landed[0] && landed[1]) st.land_reconciled = reconcile_boundaries();
+    landed_both_ = landed[0] && landed[1];
+    if (landed_both_) st.land_reconciled = reconcile_boundaries();
     for (int dir = 0; dir < 2; ++dir) {
       st.iterations += part[dir].iterations;
       st.lbfgs_iterations += part[dir].lbfgs_iterations;
@@ -1951,6 +1954,54 @@ class SymmetricMapSolver {
     return kept;
   }
 
+  // Ours, after the landing (SymmetricVolumeMapOptions::land_interior_final): the landing
+  // relaxed each interior at alpha with the other map held, and the reconciliation moved the
+  // boundaries alone; so both interiors relax together at alpha_final (the stage-2 loop of
+  // joint X-steps: boundaries held, P's boundary rows the map files'), with the inversion
+  // barrier on. Each direction is located again and kept unless it inverts more tets.
+  void relax_interiors_final() {
+    InversionBarrier b12(e12_.arap(), opt_.land_barrier_floor), b21(e21_.arap(), opt_.land_barrier_floor);
+    if (opt_.land_barrier_floor > 0) {
+      b12.activate_positive(X12_);
+      b21.activate_positive(X21_);
+      e12_.set_barrier(&b12);
+      e21_.set_barrier(&b21);
+    }
+    const Eigen::MatrixXd X12 = X12_, X21 = X21_;
+    held12_ = &final12_;
+    held21_ = &final21_;
+    alpha_ = opt_.alpha_final;
+    alternate("interior-reversible", true);
+    alpha_ = opt_.alpha;
+    held12_ = &P12_0_;
+    held21_ = &P21_0_;
+    e12_.set_barrier(nullptr);
+    e21_.set_barrier(nullptr);
+    relocate_interior(e12_.arap(), M2_, int1_, X12, X12_, final12_);
+    relocate_interior(e21_.arap(), M1_, int2_, X21, X21_, final21_);
+    count_inversions(res_.stages.back());
+  }
+  // X's interior rows located in Mj (the boundary rows stay as `located` holds them); X and
+  // `located` take them unless they invert more tets than X_before, else X = X_before.
+  static void relocate_interior(const ArapEnergy& arap, const TetMesh& Mj, const std::vector<int>& interior,
+                                const Eigen::MatrixXd& X_before, Eigen::MatrixXd& X, BarycentricMap& located) {
+    Eigen::MatrixXd Q(interior.size(), 3);
+    for (size_t q = 0; q < interior.size(); ++q) Q.row(q) = X.row(interior[q]);
+    const BarycentricMap inside = locate_in_tets(Mj, Q);
+    BarycentricMap m = located;
+    for (size_t q = 0; q < interior.size(); ++q) {
+      m.elem(interior[q]) = inside.elem(q);
+      m.bary.row(interior[q]) = inside.bary.row(q);
+    }
+    Eigen::MatrixXd P = map_positions(m, Mj.V, Mj.T);
+    if (count_inverted(arap, P) > count_inverted(arap, X_before)) {
+      X = X_before;
+      return;
+    }
+    X = std::move(P);
+    located = std::move(m);
+  }
+
   // Stage 4 again at alpha_final from the map it converged to (SymmetricVolumeMapOptions::
   // alpha_final); stage 5 and the landing at alpha: at alpha_final they left a part of the
   // target's boundary uncovered on cat -> lion (d^max 2.5x, docs/methods.md).
@@ -2003,6 +2054,10 @@ class SymmetricMapSolver {
   PStep p12_, p21_;
   BarycentricMap P12_, P21_;
   const BarycentricMap P12_0_, P21_0_;
+  // P's boundary rows in stages with the boundary fixed: the initial map's (stage 2), the
+  // map files' (relax_interiors_final).
+  const BarycentricMap* held12_ = &P12_0_;
+  const BarycentricMap* held21_ = &P21_0_;
   Eigen::MatrixXd X12_, X21_;
   std::vector<char> bd1_, bd2_;
   std::vector<int> all1_, all2_, int1_, int2_;
@@ -2011,6 +2066,7 @@ class SymmetricMapSolver {
   double beta_ = 0, gamma_ = 0;
   double alpha_ = opt_.alpha;  // Eq. 25's alpha now (SymmetricVolumeMapOptions::alpha_final)
   BarycentricMap final12_, final21_;  // the map files when landing
+  bool landed_both_ = false;
   SymmetricVolumeMapResult res_;
 };
 

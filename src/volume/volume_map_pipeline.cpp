@@ -305,7 +305,7 @@ nlohmann::json parameters_json(const SymmetricVolumeMapOptions& o, const std::st
           {"land_return_rows", o.land_return_rows}, {"land_reconcile_rounds", o.land_reconcile_rounds},
           {"land_reconcile_gap", o.land_reconcile_gap},
           {"land_reconcile_det", o.land_reconcile_det},
-          {"land_reconcile_arap", o.land_reconcile_arap},
+          {"land_reconcile_arap", o.land_reconcile_arap}, {"land_interior_final", o.land_interior_final},
           {"eliminate_p", o.eliminate_p}, {"joint_xstep", o.joint_xstep},
           {"post_repair_penalty", o.post_repair_penalty.floor}, {"xstep_iterations", o.xstep_iterations},
           {"grad_tol", o.grad_tol}, {"decrease_tol", o.decrease_tol},

@@ -174,6 +174,10 @@ struct SymmetricVolumeMapOptions {
   // reconciliation trades E_ARAP for E_R (cat -> lion, without this guard: E_R -35%, E_ARAP
   // +8%; docs/methods.md, "Mutually inverse boundaries").
   double land_reconcile_arap = 0.1;
+  // Last (ours): with alpha_final in use, both interiors relax together at alpha_final
+  // (stage 4's joint X-steps, boundaries held where the landing put them, the inversion
+  // barrier on); the landing's own relaxations ran at alpha, one map held.
+  bool land_interior_final = true;
   // Sec. 5.1 copies each interior vertex's target from its closest boundary vertex, which
   // folds the interior of X onto its boundary. Ours: with this set the interior rows of X
   // start at the harmonic extension of its boundary rows instead (harmonic_extension.h), so
