@@ -241,7 +241,8 @@ double ArapEnergy::energy(const Eigen::MatrixXd& X, const std::vector<int>& tets
   const int m = int(tets.size());
   if (X.rows() != n_ || X.cols() != 3) throw Error("ArapEnergy: X must be n×3");
   const SigmaPenalty* p = pen.floor > 0 && pen.weight != 0 ? &pen : nullptr;
-#pragma omp parallel for schedule(static)
+  // A vertex's few tets (the landing's guards, one call per move) are not worth a parallel region.
+#pragma omp parallel for schedule(static) if (m > 256)
   for (int q = 0; q < m; ++q) {
     int k = tets[q];
     tet_e_(k) = tet_term(X, T_, k, Dm_inv_[k], w_(k), grad ? &tet_g_[k] : nullptr, p);

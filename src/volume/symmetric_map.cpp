@@ -1913,11 +1913,12 @@ class SymmetricMapSolver {
       const std::vector<char> on12 = on_target(b1, X12_, on2), on21 = on_target(b2, X21_, on1);
       reconcile_boundary_step(BoundaryMapSide{M1_.V, b1, X12_, on12}, BoundaryMapSide{M2_.V, b2, X21_, on21},
                               project(on1), project(on2), moves12, moves21);
-      int moved = 0;
+      // The two maps' moves are independent (each reads and writes its own map): at once.
+      int moved12 = 0, moved21 = 0;
       auto apply = [&](const std::vector<std::pair<int, Eigen::RowVector3d>>& moves, const ArapEnergy& arap,
                        const std::vector<std::vector<int>>& vt, const TetMesh& Mj, const TetBoundary& bi,
                        const TetBoundary& bj, const std::vector<char>& on, Eigen::MatrixXd& X,
-                       BarycentricMap& located) {
+                       BarycentricMap& located, int& moved) {
         Eigen::MatrixXd Y = X;
         const std::vector<int> brows(bi.to_volume.data(), bi.to_volume.data() + bi.to_volume.size());
         TargetCoverage coverage(Y, bi.surface.F, brows, bj.surface.V);
@@ -1946,10 +1947,11 @@ class SymmetricMapSolver {
         located = std::move(m);
         moved += n;
       };
-      apply(moves12, e12_.arap(), vt1_, M2_, b1, b2, on12, X12_, final12_);
-      apply(moves21, e21_.arap(), vt2_, M1_, b2, b1, on21, X21_, final21_);
-      kept += moved;
-      if (moved == 0) break;
+      run_pair([&] { apply(moves12, e12_.arap(), vt1_, M2_, b1, b2, on12, X12_, final12_, moved12); },
+               [&] { apply(moves21, e21_.arap(), vt2_, M1_, b2, b1, on21, X21_, final21_, moved21); },
+               two_threads_available());
+      kept += moved12 + moved21;
+      if (moved12 + moved21 == 0) break;
     }
     return kept;
   }

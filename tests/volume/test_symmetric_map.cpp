@@ -340,6 +340,19 @@ const EndToEnd& end_to_end() {
   }();
   return *e;
 }
+// The end-to-end pair mapped again with other options.
+SymmetricVolumeMapResult end_to_end_with(const SymmetricVolumeMapOptions& o) {
+  const EndToEnd& e = end_to_end();
+  return symmetric_volume_map(e.A, e.B, landmark_initial_map(e.A, e.B, e.LA, e.LB),
+                              landmark_initial_map(e.B, e.A, e.LB, e.LA), o);
+}
+// Both directions' metrics of a map of the end-to-end pair (A -> B against the true map).
+std::pair<VolumeMapMetrics, VolumeMapMetrics> end_to_end_metrics(const SymmetricVolumeMapResult& r) {
+  const EndToEnd& e = end_to_end();
+  const Eigen::MatrixXd truth = apply(e.A.V);
+  return std::make_pair(volume_map_metrics(e.A, e.B, r.X12, &r.map12, &r.X21, &truth),
+                        volume_map_metrics(e.B, e.A, r.X21, &r.map21, &r.X12));
+}
 SymmetricMapStage stage_named(const SymmetricVolumeMapResult& r, const std::string& name) {
   for (const auto& s : r.stages)
     if (s.name == name) return s;
@@ -463,12 +476,10 @@ TEST(SymmetricVolumeMap, HarmonicInteriorStartsTheBoundaryFixedStageUnfolded) {
 // (E_R) and no further from the true map.
 TEST(SymmetricVolumeMap, LowerAlphaContinuationLowersReversibilityEnergy) {
   const EndToEnd& e = end_to_end();
-  const BarycentricMap i12 = landmark_initial_map(e.A, e.B, e.LA, e.LB);
-  const BarycentricMap i21 = landmark_initial_map(e.B, e.A, e.LB, e.LA);
   SymmetricVolumeMapOptions o;
   const bool default_on = o.alpha_final >= 0 && o.alpha_final != o.alpha;
   o.alpha_final = default_on ? -1 : 0.2;
-  const SymmetricVolumeMapResult other = symmetric_volume_map(e.A, e.B, i12, i21, o);
+  const SymmetricVolumeMapResult other = end_to_end_with(o);
   const SymmetricVolumeMapResult& on = default_on ? e.r : other;
   const SymmetricVolumeMapResult& off = default_on ? other : e.r;
   int continued = 0;
@@ -479,12 +490,7 @@ TEST(SymmetricVolumeMap, LowerAlphaContinuationLowersReversibilityEnergy) {
     }
   EXPECT_EQ(continued, 1);
   for (const auto& s : off.stages) EXPECT_NE(s.name, "full-reversible");
-  const Eigen::MatrixXd truth = apply(e.A.V);
-  auto metrics = [&](const SymmetricVolumeMapResult& r) {
-    return std::make_pair(volume_map_metrics(e.A, e.B, r.X12, &r.map12, &r.X21, &truth),
-                          volume_map_metrics(e.B, e.A, r.X21, &r.map21, &r.X12));
-  };
-  const auto m_on = metrics(on), m_off = metrics(off);
+  const auto m_on = end_to_end_metrics(on), m_off = end_to_end_metrics(off);
   std::printf("E_R %.3g / %.3g with the continuation, %.3g / %.3g without; truth mean %.4g vs %.4g\n",
               m_on.first.E_R, m_on.second.E_R, m_off.first.E_R, m_off.second.E_R, m_on.first.truth_mean,
               m_off.first.truth_mean);
@@ -500,20 +506,14 @@ TEST(SymmetricVolumeMap, LowerAlphaContinuationLowersReversibilityEnergy) {
 // (d^max, up to the coverage guard's allowance).
 TEST(SymmetricVolumeMap, ReconciledBoundariesLowerReversibilityEnergy) {
   const EndToEnd& e = end_to_end();
-  const BarycentricMap i12 = landmark_initial_map(e.A, e.B, e.LA, e.LB);
-  const BarycentricMap i21 = landmark_initial_map(e.B, e.A, e.LB, e.LA);
   SymmetricVolumeMapOptions o;
   ASSERT_GT(o.land_reconcile_rounds, 0);
   o.land_reconcile_rounds = 0;
-  const SymmetricVolumeMapResult off = symmetric_volume_map(e.A, e.B, i12, i21, o);
+  const SymmetricVolumeMapResult off = end_to_end_with(o);
   const SymmetricVolumeMapResult& on = e.r;
   EXPECT_GT(stage_named(on, "land-on-target").land_reconciled, 0);
   EXPECT_EQ(stage_named(off, "land-on-target").land_reconciled, 0);
-  auto metrics = [&](const SymmetricVolumeMapResult& r) {
-    return std::make_pair(volume_map_metrics(e.A, e.B, r.X12, &r.map12, &r.X21),
-                          volume_map_metrics(e.B, e.A, r.X21, &r.map21, &r.X12));
-  };
-  const auto m_on = metrics(on), m_off = metrics(off);
+  const auto m_on = end_to_end_metrics(on), m_off = end_to_end_metrics(off);
   std::printf("E_R %.3g / %.3g reconciled, %.3g / %.3g not; d^max %.3g / %.3g vs %.3g / %.3g\n", m_on.first.E_R,
               m_on.second.E_R, m_off.first.E_R, m_off.second.E_R, m_on.first.d_max, m_on.second.d_max,
               m_off.first.d_max, m_off.second.d_max);
@@ -543,22 +543,15 @@ TEST(SymmetricVolumeMap, ReconciledBoundariesLowerReversibilityEnergy) {
 // tet turned over and the error against the true map no larger.
 TEST(SymmetricVolumeMap, FinalInteriorRelaxationLowersReversibilityEnergy) {
   const EndToEnd& e = end_to_end();
-  const BarycentricMap i12 = landmark_initial_map(e.A, e.B, e.LA, e.LB);
-  const BarycentricMap i21 = landmark_initial_map(e.B, e.A, e.LB, e.LA);
   SymmetricVolumeMapOptions o;
   ASSERT_TRUE(o.land_interior_final);
   o.land_interior_final = false;
-  const SymmetricVolumeMapResult off = symmetric_volume_map(e.A, e.B, i12, i21, o);
+  const SymmetricVolumeMapResult off = end_to_end_with(o);
   const SymmetricVolumeMapResult& on = e.r;
   const std::string stop = stage_named(on, "interior-reversible").stop_reason;
   EXPECT_TRUE(stop == "decrease" || stop == "gradient") << stop;
   for (const auto& s : off.stages) EXPECT_NE(s.name, "interior-reversible");
-  const Eigen::MatrixXd truth = apply(e.A.V);
-  auto metrics = [&](const SymmetricVolumeMapResult& r) {
-    return std::make_pair(volume_map_metrics(e.A, e.B, r.X12, &r.map12, &r.X21, &truth),
-                          volume_map_metrics(e.B, e.A, r.X21, &r.map21, &r.X12));
-  };
-  const auto m_on = metrics(on), m_off = metrics(off);
+  const auto m_on = end_to_end_metrics(on), m_off = end_to_end_metrics(off);
   std::printf("E_R %.3g / %.3g relaxed, %.3g / %.3g not; E_ARAP %.4g / %.4g vs %.4g / %.4g; truth mean %.4g vs %.4g\n",
               m_on.first.E_R, m_on.second.E_R, m_off.first.E_R, m_off.second.E_R, m_on.first.E_arap,
               m_on.second.E_arap, m_off.first.E_arap, m_off.second.E_arap, m_on.first.truth_mean,
