@@ -44,6 +44,10 @@ void add_elastic_options(CLI::App* app, ElasticSettings& o, std::string& truth_a
                 "elastic: return the last iterate even when it has more flipped or collapsed "
                 "triangles than the initial map (default: the collapse guard keeps the latest "
                 "iterate that has no more, or the initial map; report.json: elastic.guard)");
+  app->add_flag("--elastic-guard-before-untangling", o.guard_before_untangling,
+                "elastic: the collapse guard judges the refinement's iterates alone (default: when "
+                "it sets the last iterate aside, that iterate untangled is returned if it then has "
+                "no more flipped or collapsed triangles than the initial map)");
   app->add_flag("--elastic-no-untangle", [&o](std::int64_t) { o.untangle = false; },
                 "elastic: return the refined maps as they are (default: a final stage slides the "
                 "images around flipped or collapsed triangles on the target, minimizing a "

@@ -90,6 +90,33 @@ SurfaceUntangling untangle_surface_maps(const TriMesh& A, const TriMesh& B, Bary
   return u;
 }
 
+namespace {
+// SurfaceRefinementOptions::guard_untangled: the last iterates (where the guard set them aside;
+// elsewhere the returned map is the last iterate) untangled, and made r's maps when neither
+// direction then has more folds than its initial map. Returns whether they were.
+bool last_iterates_untangled(const TriMesh& A, const TriMesh& B, ElasticResult& r,
+                             const SurfaceRefinementOptions& opt, SurfaceUntangling& u) {
+  const bool bij = r.map_BA.size() == B.num_vertices();
+  BarycentricMap P = r.last_AB.size() > 0 ? r.last_AB : r.map_AB;
+  BarycentricMap Q = bij && r.last_BA.size() > 0 ? r.last_BA : r.map_BA;
+  SurfaceUntangling v = untangle_surface_maps(A, B, P, Q, opt);
+  if (v.final_AB.bad() > r.guard_AB.initial_bad || (bij && v.final_BA.bad() > r.guard_BA.initial_bad)) return false;
+  auto revise = [&](ElasticGuard& g, BarycentricMap& last) {
+    if (last.size() == 0) return;
+    g.returned = ElasticReturned::Last;
+    g.iteration = r.outer_iterations;
+    g.returned_bad = g.last_bad;
+    last = BarycentricMap{};
+  };
+  revise(r.guard_AB, r.last_AB);
+  revise(r.guard_BA, r.last_BA);
+  r.map_AB = std::move(P);
+  if (bij) r.map_BA = std::move(Q);
+  u = std::move(v);
+  return true;
+}
+}  // namespace
+
 SurfaceRefinement refine_surface_maps(const TriMesh& A, const TriMesh& B, const BarycentricMap& init_AB,
                                       const BarycentricMap& init_BA, const SurfaceRefinementOptions& opt) {
   SurfaceRefinement out;
@@ -109,6 +136,11 @@ SurfaceRefinement refine_surface_maps(const TriMesh& A, const TriMesh& B, const 
   if (!r.map_AB.bary.allFinite() || !r.Y.allFinite()) throw Error("elastic: non-finite result");
   if (!opt.untangle) return out;
   out.untangled = true;
+  if (opt.guard_untangled && eo.keep_no_worse && (r.last_AB.size() > 0 || r.last_BA.size() > 0) &&
+      last_iterates_untangled(A, B, r, opt, out.untangling)) {
+    out.guard_revised = true;
+    return out;
+  }
   out.untangling = untangle_surface_maps(A, B, r.map_AB, r.map_BA, opt);
   return out;
 }

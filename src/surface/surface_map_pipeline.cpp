@@ -452,8 +452,10 @@ void elastic_metrics(const TriMesh& A, const TriMesh& B, const BarycentricMap& i
   run.report["metrics"] = metrics;
 }
 
-// The collapse guard's choice per direction, when the last iterate was worse than the start.
-void guard_warnings(const ElasticResult& r, bool bij, SurfaceMapRun& run) {
+// The collapse guard's choice per direction, when the last iterate was worse than the start
+// (ref.guard_revised: judged again after the untangling, SurfaceRefinementOptions::guard_untangled).
+void guard_warnings(const SurfaceRefinement& ref, bool bij, SurfaceMapRun& run) {
+  const ElasticResult& r = ref.elastic;
   for (const char* dir : {"AB", "BA"}) {
     if (std::string(dir) == "BA" && !bij) continue;
     const ElasticGuard& gd = std::string(dir) == "AB" ? r.guard_AB : r.guard_BA;
@@ -461,7 +463,11 @@ void guard_warnings(const ElasticResult& r, bool bij, SurfaceMapRun& run) {
     const std::string head = std::string("the last ") + dir + " iterate has " + std::to_string(gd.last_bad) +
                              " flipped or collapsed triangles against " + std::to_string(gd.initial_bad) +
                              " in the initial map; ";
-    if (gd.returned == ElasticReturned::EarlierIterate)
+    if (ref.guard_revised) {
+      const FoldCounts& f = std::string(dir) == "AB" ? ref.untangling.final_AB : ref.untangling.final_BA;
+      run.warnings.push_back("elastic: " + head + "untangled it has " + std::to_string(f.bad()) +
+                             ": returned (report.json: elastic.guard)");
+    } else if (gd.returned == ElasticReturned::EarlierIterate)
       run.warnings.push_back("elastic: " + head + "returning outer iteration " + std::to_string(gd.iteration) +
                              " instead (" + std::to_string(gd.returned_bad) + "; report.json: elastic.guard)");
     else if (gd.returned == ElasticReturned::Initial)
@@ -556,7 +562,9 @@ void run_elastic(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& re
   run.report["elastic"]["untangle"] = untangle_json;
   run.report["elastic"]["anchors"] = anchors_json;  // stage 0, in the repaired meshes' numbering
   elastic_metrics(RA, RB, initAB, initBA, r, bij, truth, run);
-  guard_warnings(r, bij, run);
+  run.report["elastic"]["guard"]["judged_untangled"] = ro.guard_untangled;
+  run.report["elastic"]["guard"]["revised"] = ref.guard_revised;
+  guard_warnings(ref, bij, run);
   run.summary = "elastic: " + std::to_string(r.outer_iterations) + " outer iterations";
 }
 
@@ -569,6 +577,7 @@ void set_refinement_stages(const ElasticSettings& o, SurfaceRefinementOptions& r
   ro.bridge_untangle = o.bridge_untangle;
   ro.search_untangle = o.search_untangle;
   ro.untangle_passes = o.untangle_passes;
+  ro.guard_untangled = !o.guard_before_untangling;
   ro.feature_anchors = o.feature_anchors;
   if (o.anchor_tolerance >= 0) ro.anchoring.tolerance = o.anchor_tolerance;
 }

@@ -8,6 +8,7 @@
 #include "shapemap/geometry/closest_point.h"
 #include "shapemap/geometry/mass.h"
 #include "shapemap/surface/elastic.h"
+#include "shapemap/surface/refine_surface_maps.h"
 #include "shapemap/surface/shell_energy.h"
 
 #include <Eigen/Dense>
@@ -592,6 +593,55 @@ TEST(Elastic, CollapseGuardNeverReturnsAWorseMap) {
   }
   EXPECT_EQ(r6b.guard_BA.iteration, r6.guard_BA.iteration);
   EXPECT_EQ(r6b.first_Q_collapse.iteration, r6.first_Q_collapse.iteration);
+}
+
+// Issue 20 (SurfaceRefinementOptions::guard_untangled): the guard judges the maps as they are
+// returned. The construction above with the plain projection: the guard sets the last iterate
+// aside; untangled, that iterate has no more folds than the start, so it is what the refinement
+// returns (exactly the untangled last iterate, as with the guard off); with guard_untangled off,
+// the guard's own choice, untangled. Neither ever has more folds than the start.
+TEST(Elastic, CollapseGuardJudgesTheUntangledMaps) {
+  const TriMesh A = bumpy_sphere(24, 36, 0.0, 0.0);
+  const TriMesh B = bumpy_sphere(3, 4, 0.0, 0.0);
+  const BarycentricMap initAB = radial_map(A, B), initBA = radial_map(B, A);
+  auto bad = [](const TriMesh& S, const TriMesh& T, const BarycentricMap& P) {
+    const SurfaceDistortion d = surface_distortion(S, T, P);
+    return d.flipped + d.degenerate;
+  };
+  const int bad0_AB = bad(A, B, initAB), bad0_BA = bad(B, A, initBA);
+  SurfaceRefinementOptions ro;
+  ro.feature_anchors = false;
+  ro.elastic.max_outer_iterations = 1;
+  ro.elastic.safe_projection = false;
+  ro.elastic.keep_no_worse = false;  // the last iterates, untangled
+  const SurfaceRefinement last = refine_surface_maps(A, B, initAB, initBA, ro);
+  ro.elastic.keep_no_worse = true;
+  ro.guard_untangled = false;
+  const SurfaceRefinement before = refine_surface_maps(A, B, initAB, initBA, ro);
+  ro.guard_untangled = true;
+  const SurfaceRefinement now = refine_surface_maps(A, B, initAB, initBA, ro);
+  // the guard set a last iterate aside (else this test checks nothing)
+  ASSERT_TRUE(before.elastic.last_AB.size() > 0 || before.elastic.last_BA.size() > 0);
+  EXPECT_FALSE(before.guard_revised);
+  ASSERT_TRUE(now.guard_revised);
+  auto same = [](const BarycentricMap& P, const BarycentricMap& Q) {
+    return P.elem == Q.elem && P.bary == Q.bary;
+  };
+  EXPECT_TRUE(same(now.elastic.map_AB, last.elastic.map_AB));
+  EXPECT_TRUE(same(now.elastic.map_BA, last.elastic.map_BA));
+  EXPECT_FALSE(same(now.elastic.map_AB, before.elastic.map_AB) && same(now.elastic.map_BA, before.elastic.map_BA));
+  for (const SurfaceRefinement* r : {&now, &before}) {
+    EXPECT_LE(bad(A, B, r->elastic.map_AB), bad0_AB);
+    EXPECT_LE(bad(B, A, r->elastic.map_BA), bad0_BA);
+    EXPECT_EQ(r->untangling.final_AB.bad(), bad(A, B, r->elastic.map_AB));
+  }
+  // the revised guard says so: the last iterate, none set aside
+  for (const ElasticGuard* g : {&now.elastic.guard_AB, &now.elastic.guard_BA}) {
+    EXPECT_EQ(g->returned, ElasticReturned::Last);
+    EXPECT_EQ(g->iteration, now.elastic.outer_iterations);
+  }
+  EXPECT_EQ(now.elastic.last_AB.size(), 0);
+  EXPECT_EQ(now.elastic.last_BA.size(), 0);
 }
 
 // fold_counts agrees with surface_distortion's counts (it is what the guard uses).

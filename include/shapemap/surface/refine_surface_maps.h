@@ -52,6 +52,13 @@ struct SurfaceRefinementOptions {
   // collapsed count of both maps (the 45 camel pose pairs, one pass -> 3: 12 -> 15 fold-free
   // after repair, folds 14,322 -> 13,068; docs/methods.md). 1 = one pass.
   int untangle_passes = 3;
+  // Ours (issue 20): the collapse guard (ElasticOptions::keep_no_worse) judges the maps as they
+  // are returned, after stages 2 to 6. When it set a last iterate aside, the last iterates are
+  // untangled too and returned if neither direction then has more flipped + collapsed triangles
+  // than its initial map; else the guard's choice is untangled, as before. The untangling
+  // removes most of the folds that the plain projection (--elastic-plain-projection) leaves,
+  // which the guard saw before it and answered with the initial map (docs/methods.md).
+  bool guard_untangled = true;
 };
 
 // Stages 2 to 5, per direction (BA: only with a reverse map).
@@ -79,6 +86,9 @@ struct SurfaceRefinement {
   ElasticResult elastic;
   bool untangled = false;
   SurfaceUntangling untangling;
+  // guard_untangled: the guard had set a last iterate aside and the untangled last iterates were
+  // returned instead (elastic.guard_AB/BA then say "last iterate"; the counts before untangling).
+  bool guard_revised = false;
 };
 
 // A, B: closed triangle meshes; init_AB: A's vertices onto B's faces; init_BA: B's vertices

@@ -33,6 +33,7 @@ struct ElasticSettings {
   bool gamma_ramp = false;
   bool plain_projection = false;  // ElasticOptions::safe_projection = false
   bool keep_worse = false;        // collapse guard off (ElasticOptions::keep_no_worse)
+  bool guard_before_untangling = false;  // SurfaceRefinementOptions::guard_untangled = false
   int inner_iterations = -1;      // ElasticOptions::inner_max_iterations (default 50)
   double inner_f_tol = -1;        // ElasticOptions::inner_f_tol (default 1e-6)
   double ramp_inner_f_tol = -1;   // ElasticOptions::inner_f_tol_ramp (default 1e-5; 0 = inner_f_tol)
