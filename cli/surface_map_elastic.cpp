@@ -40,6 +40,8 @@ void add_elastic_options(CLI::App* app, ElasticSettings& o, std::string& truth_a
   app->add_flag("--elastic-plain-projection", o.plain_projection,
                 "elastic: the P/Q steps of Sec. 5.1 as the plain closest point (default: rows that "
                 "would flip or collapse a mapped triangle keep their previous value)");
+  app->add_flag("--elastic-plain-projection-in-ramp", o.plain_projection_in_ramp,
+                "elastic: the plain P/Q steps while beta ramps up (Sec. 5.2), the safe ones after it");
   app->add_flag("--elastic-keep-worse", o.keep_worse,
                 "elastic: return the last iterate even when it has more flipped or collapsed "
                 "triangles than the initial map (default: the collapse guard keeps the latest "

@@ -758,7 +758,7 @@ class OverlappedJob {
 // the energy terms at its end and the time of each kind of step. log_b_previous (may be
 // empty) runs during the Y step, log_a during the Y~ step (after the Y step when injective).
 ElasticIterate alternate_once(Side& a, Side& b, double beta, double gamma, bool bij, const ElasticOptions& opt,
-                              double f_tol, OverlappedJob& job, std::function<void()> log_b_previous,
+                              double f_tol, bool safe, OverlappedJob& job, std::function<void()> log_b_previous,
                               const std::function<void(ElasticIterate&)>& log_a) {
   ElasticIterate it;
   struct JoinOnExit {  // a job never outlives what it reads, also when a step throws
@@ -768,7 +768,7 @@ ElasticIterate alternate_once(Side& a, Side& b, double beta, double gamma, bool 
   it.beta = beta;
   EnergyParts pa, pb;
   auto t0 = Clock::now();
-  projection_step(a, b, beta, gamma, bij, opt.safe_projection);  // P step
+  projection_step(a, b, beta, gamma, bij, safe);  // P step
   it.time_projection += seconds_since(t0);
   if (log_b_previous) job.start(std::move(log_b_previous));
   t0 = Clock::now();
@@ -778,7 +778,7 @@ ElasticIterate alternate_once(Side& a, Side& b, double beta, double gamma, bool 
   if (!bij) log_a(it);
   if (bij) {
     t0 = Clock::now();
-    projection_step(b, a, beta, gamma, bij, opt.safe_projection);  // Q step
+    projection_step(b, a, beta, gamma, bij, safe);  // Q step
     it.time_projection += seconds_since(t0);
     job.start([&] { log_a(it); });
     t0 = Clock::now();
@@ -962,7 +962,8 @@ ElasticResult elastic_correspondence(const TriMesh& A, const TriMesh& B,
                          : k < opt.beta_ramp_iterations && opt.inner_f_tol_ramp > 0 ? opt.inner_f_tol_ramp
                                                                                      : opt.inner_f_tol;
     if (k == opt.beta_ramp_iterations && opt.anchors.release_after_ramp) release_anchors(a, b, res);
-    ElasticIterate it = alternate_once(a, b, beta, gamma, bij, opt, f_tol, job, std::move(log_b_pending),
+    const bool safe = opt.safe_projection && (opt.safe_projection_in_ramp || k >= opt.beta_ramp_iterations);
+    ElasticIterate it = alternate_once(a, b, beta, gamma, bij, opt, f_tol, safe, job, std::move(log_b_pending),
                                        [&](ElasticIterate& i) {
                                          logA.after_iteration(a, k + 1, opt.keep_no_worse, i.P_folds, i.Y_folds,
                                                               res.first_P_collapse, res.first_Y_collapse);

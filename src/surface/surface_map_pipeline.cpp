@@ -320,7 +320,7 @@ nlohmann::json elastic_parameters_json(const ElasticOptions& eo, const std::stri
           {"interpolate_initial_step", eo.interpolate_initial_step},
           {"unit_area", eo.normalize_area},
           {"keep_orientation", eo.keep_orientation}, {"gamma_ramp", eo.gamma_ramp},
-          {"safe_projection", eo.safe_projection}};
+          {"safe_projection", eo.safe_projection}, {"safe_projection_in_ramp", eo.safe_projection_in_ramp}};
 }
 
 // Energies per outer iteration, summarized: first, last, and at most 50 samples.
@@ -618,6 +618,7 @@ ElasticOptions elastic_options_from_settings(const ElasticSettings& o, const Tri
   eo.keep_orientation = o.keep_orientation;
   eo.gamma_ramp = o.gamma_ramp;
   eo.safe_projection = !o.plain_projection;
+  eo.safe_projection_in_ramp = !o.plain_projection_in_ramp;
   if (o.inner_iterations >= 0) eo.inner_max_iterations = o.inner_iterations;
   if (o.inner_f_tol >= 0) eo.inner_f_tol = o.inner_f_tol;
   if (o.ramp_inner_f_tol >= 0) eo.inner_f_tol_ramp = o.ramp_inner_f_tol;

@@ -644,6 +644,43 @@ TEST(Elastic, CollapseGuardJudgesTheUntangledMaps) {
   EXPECT_EQ(now.elastic.last_BA.size(), 0);
 }
 
+// ElasticOptions::safe_projection_in_ramp = false: the plain P and Q steps while beta ramps up,
+// the safe ones after it. On the construction above (whose plain P step folds at once): a run
+// that ends within the ramp is the plain one, a run without a ramp the safe one, and a run that
+// goes past the ramp starts as the plain one.
+TEST(Elastic, PlainProjectionOnlyDuringTheRamp) {
+  const TriMesh A = bumpy_sphere(24, 36, 0.0, 0.0);
+  const TriMesh B = bumpy_sphere(3, 4, 0.0, 0.0);
+  const BarycentricMap initAB = radial_map(A, B), initBA = radial_map(B, A);
+  auto run = [&](bool safe, bool safe_in_ramp, int ramp, int K) {
+    ElasticOptions o;
+    o.keep_no_worse = false;
+    o.safe_projection = safe;
+    o.safe_projection_in_ramp = safe_in_ramp;
+    o.beta_ramp_iterations = ramp;
+    o.max_outer_iterations = K;
+    o.energy_tol = 0;
+    return elastic_correspondence(A, B, initAB, initBA, o);
+  };
+  auto same = [](const ElasticResult& x, const ElasticResult& y) {
+    return x.map_AB.elem == y.map_AB.elem && x.map_AB.bary == y.map_AB.bary && x.map_BA.elem == y.map_BA.elem &&
+           x.map_BA.bary == y.map_BA.bary;
+  };
+  const ElasticResult plain = run(false, true, 10, 4), safe = run(true, true, 10, 4);
+  ASSERT_FALSE(same(plain, safe));  // the two projections differ here (else this test checks nothing)
+  EXPECT_TRUE(same(run(true, false, 10, 4), plain));
+  EXPECT_EQ(run(true, false, 10, 4).projection_rows_kept, 0);
+  EXPECT_GT(safe.projection_rows_kept, 0);
+  // no ramp: safe from the first step
+  const ElasticResult no_ramp = run(true, false, 0, 4);
+  EXPECT_TRUE(same(no_ramp, run(true, true, 0, 4)));
+  EXPECT_GT(no_ramp.projection_rows_kept, 0);
+  // a ramp of 2: its two iterations are the plain run's
+  const ElasticResult late = run(true, false, 2, 4), plain2 = run(false, true, 2, 4);
+  ASSERT_EQ(late.history.size(), 4u);
+  for (int k = 0; k < 2; ++k) EXPECT_EQ(late.history[k].energy, plain2.history[k].energy) << k;
+}
+
 // fold_counts agrees with surface_distortion's counts (it is what the guard uses).
 TEST(Elastic, FoldCountsMatchSurfaceDistortion) {
   GeneratedPair pair = make_creature_pair(5, PairKind::NonIsometric, 600);

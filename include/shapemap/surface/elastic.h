@@ -75,6 +75,10 @@ struct ElasticOptions {
   // keep their previous value and E still does not increase. false = Sec. 5.1's P step, the
   // plain argmin, whose R^6 closest points can collapse whole patches (docs/methods.md).
   bool safe_projection = true;
+  // ... also during the beta ramp (Sec. 5.2). false: the plain P step while beta ramps up (Y is
+  // free enough then to carry a patch that BIM squeezed out again), the safe one after it
+  // (docs/methods.md, "The three projections on the surface bench").
+  bool safe_projection_in_ramp = true;
   int max_outer_iterations = 300; // Algorithm 1: K = 300
   // Algorithm 1 stop: |E_k - E_{k-1}| < energy_tol * |E_k|, tested once beta has reached
   // beta_end (before, E changes because beta does). 0 = always run K iterations.

@@ -32,6 +32,7 @@ struct ElasticSettings {
   bool keep_orientation = false;
   bool gamma_ramp = false;
   bool plain_projection = false;  // ElasticOptions::safe_projection = false
+  bool plain_projection_in_ramp = false;  // ElasticOptions::safe_projection_in_ramp = false
   bool keep_worse = false;        // collapse guard off (ElasticOptions::keep_no_worse)
   bool guard_before_untangling = false;  // SurfaceRefinementOptions::guard_untangled = false
   int inner_iterations = -1;      // ElasticOptions::inner_max_iterations (default 50)
