@@ -9,7 +9,10 @@
 
 namespace shapemap::cli {
 
-void add_elastic_options(CLI::App* app, ElasticSettings& o, std::string& truth_ab) {
+namespace {
+
+// The model, its weights and schedule, the projection and the collapse guard.
+void add_elastic_model_options(CLI::App* app, ElasticSettings& o) {
   app->add_option("--elastic-preset", o.preset,
                   "elastic: bending weight preset (Sec. 5.2/6.1): auto (default: degenerate if the "
                   "initial maps have flipped or collapsed triangles, as Sec. 5.2 advises, else "
@@ -50,6 +53,10 @@ void add_elastic_options(CLI::App* app, ElasticSettings& o, std::string& truth_a
                 "elastic: the collapse guard judges the refinement's iterates alone (default: when "
                 "it sets the last iterate aside, that iterate untangled is returned if it then has "
                 "no more flipped or collapsed triangles than the initial map)");
+}
+
+// Our stages around Algorithm 1: the untangling of the returned maps and the feature anchors.
+void add_elastic_stage_options(CLI::App* app, ElasticSettings& o) {
   app->add_flag("--elastic-no-untangle", [&o](std::int64_t) { o.untangle = false; },
                 "elastic: return the refined maps as they are (default: a final stage slides the "
                 "images around flipped or collapsed triangles on the target, minimizing a "
@@ -99,6 +106,10 @@ void add_elastic_options(CLI::App* app, ElasticSettings& o, std::string& truth_a
                   "elastic: a pair of AGD maxima is an anchor when the initial maps send each within "
                   "this distance of the other (unit-area frames; default 0.005)")
       ->check(non_negative());
+}
+
+// The Y steps' L-BFGS: iterations, stopping tolerances, bending mask, preconditioner.
+void add_elastic_solver_options(CLI::App* app, ElasticSettings& o) {
   app->add_option("--elastic-inner-iterations", o.inner_iterations,
                   "elastic: at most this many L-BFGS iterations per Y step (Sec. 5.1: 50)")
       ->check(non_negative());
@@ -130,6 +141,14 @@ void add_elastic_options(CLI::App* app, ElasticSettings& o, std::string& truth_a
   app->add_flag("--elastic-unit-first-step", o.unit_first_step,
                 "elastic: every Y-step line search tries the unit step first (default: after "
                 "the first iteration, the step that repeats the last decrease, docs/methods.md)");
+}
+
+}  // namespace
+
+void add_elastic_options(CLI::App* app, ElasticSettings& o, std::string& truth_ab) {
+  add_elastic_model_options(app, o);
+  add_elastic_stage_options(app, o);
+  add_elastic_solver_options(app, o);
   app->add_option("--truth", truth_ab,
                   "ground-truth map A->B (map file) for the geodesic error in report.json");
 }
