@@ -149,6 +149,12 @@ py::dict surface_map(const RowMatrixXd& VA, const RowMatrixXi& FA, const RowMatr
   e.search_untangle = o["elastic_search_untangle"].cast<bool>();
   e.untangle_passes = o["elastic_untangle_passes"].cast<int>();
   e.feature_anchors = o["elastic_feature_anchors"].cast<bool>();
+  e.plain_projection = o["elastic_plain_projection"].cast<bool>();
+  e.plain_projection_in_ramp = o["elastic_plain_projection_in_ramp"].cast<bool>();
+  e.guard_before_untangling = o["elastic_guard_before_untangling"].cast<bool>();
+  e.anchor_hold_to_end = o["elastic_anchors_hold_to_end"].cast<bool>();
+  e.anchor_weight = o["elastic_anchor_weight"].cast<double>();
+  e.anchor_tolerance = o["elastic_anchor_tolerance"].cast<double>();
   set_threads(o["threads"].cast<int>());
   const TriMesh A = tri_mesh(VA, FA, req.bim.name_A.c_str()), B = tri_mesh(VB, FB, req.bim.name_B.c_str());
   PyProgress p{progress};

@@ -162,8 +162,10 @@ def surface_map(VA, FA, VB, FB, method="bim", landmarks=None, init=None, init_re
                 elastic_iterations=300, elastic_injective=False, elastic_partial=False,
                 elastic_keep_worse=False, elastic_untangle=True, elastic_wide_untangle=True,
                 elastic_sliver_untangle=True, elastic_bridge_untangle=True, elastic_search_untangle=True,
-                elastic_untangle_passes=3,
-                elastic_feature_anchors=True, names=("A", "B"),
+                elastic_untangle_passes=3, elastic_feature_anchors=True, elastic_plain_projection=False,
+                elastic_plain_projection_in_ramp=False, elastic_guard_before_untangling=False,
+                elastic_anchors_hold_to_end=False, elastic_anchor_weight=-1.0, elastic_anchor_tolerance=-1.0,
+                names=("A", "B"),
                 prepared=None, progress=None):
     """Map between two closed genus-0 surfaces (`shapemap surface-map`).
 
@@ -180,7 +182,13 @@ def surface_map(VA, FA, VB, FB, method="bim", landmarks=None, init=None, init_re
     part not re-seated); elastic_search_untangle=False: `--elastic-no-search-untangle` (the folds
     the other stages leave are left);
     elastic_untangle_passes: `--elastic-untangle-passes` (the stages repeated while folds fall);
-    elastic_feature_anchors=False: `--elastic-no-feature-anchors`. matching_search: BIM's
+    elastic_feature_anchors=False: `--elastic-no-feature-anchors`; elastic_anchors_hold_to_end,
+    elastic_anchor_weight, elastic_anchor_tolerance: `--elastic-anchors-hold-to-end`,
+    `--elastic-anchor-weight`, `--elastic-anchor-tolerance` (-1: the default). The projection
+    (Sec. 5.1): elastic_plain_projection=True is `--elastic-plain-projection` (the plain P/Q steps
+    throughout), elastic_plain_projection_in_ramp=True `--elastic-plain-projection-in-ramp` (while
+    beta ramps up); elastic_guard_before_untangling=True: `--elastic-guard-before-untangling` (the
+    collapse guard judges the iterates as the refinement leaves them). matching_search: BIM's
     `--matching-search` (at most this many changes of the selected group's feature matching;
     0: Sec. 6.2's groups alone; report["bim"][dir]["matching_search"]). landmark_features=False:
     `--no-landmark-features` (with landmarks, BIM over their triples alone instead of its own
@@ -211,6 +219,12 @@ def surface_map(VA, FA, VB, FB, method="bim", landmarks=None, init=None, init_re
                 elastic_search_untangle=bool(elastic_search_untangle),
                 elastic_untangle_passes=int(elastic_untangle_passes),
                 elastic_feature_anchors=bool(elastic_feature_anchors),
+                elastic_plain_projection=bool(elastic_plain_projection),
+                elastic_plain_projection_in_ramp=bool(elastic_plain_projection_in_ramp),
+                elastic_guard_before_untangling=bool(elastic_guard_before_untangling),
+                elastic_anchors_hold_to_end=bool(elastic_anchors_hold_to_end),
+                elastic_anchor_weight=float(elastic_anchor_weight),
+                elastic_anchor_tolerance=float(elastic_anchor_tolerance),
                 threads=int(threads),
                 names=(str(names[0]), str(names[1])), prepared=None if prepared is None else tuple(prepared))
     VA, FA, VB, FB = _v(VA), _e(FA), _v(VB), _e(FB)

@@ -273,6 +273,31 @@ def test_elastic_untangle_option(surfaces):
     assert nos.report["elastic"]["untangle"]["search"] == {"enabled": False, "ran": False}
 
 
+def test_cli_and_module_same_elastic_map_with_model_options(cli, pair, surfaces, tmp_path):
+    """The elastic model's options (the projection, the guard's rule, the anchors) reach the
+    library from the module as from the command line: the same maps, the report says which."""
+    (VA, FA), (VB, FB) = surfaces
+    cli("--seed", 1, "surface-map", pair / "A.obj", pair / "B.obj", "--method", "elastic", *FAST_BIM_CLI,
+        "--elastic-iterations", 4, "--elastic-plain-projection-in-ramp", "--elastic-guard-before-untangling",
+        "--elastic-anchors-hold-to-end", "--elastic-anchor-weight", 5, "--elastic-anchor-tolerance", 0.02,
+        "-o", tmp_path / "out")
+    m = shapemap.surface_map(VA, FA, VB, FB, method="elastic", elastic_iterations=4, seed=1,
+                             elastic_plain_projection_in_ramp=True, elastic_guard_before_untangling=True,
+                             elastic_anchors_hold_to_end=True, elastic_anchor_weight=5, elastic_anchor_tolerance=0.02,
+                             **FAST_BIM)
+    shapemap.write_map(tmp_path / "py_AB.txt", m)
+    shapemap.write_map(tmp_path / "py_BA.txt", m.reverse)
+    for d in ("AB", "BA"):
+        assert (tmp_path / "out" / f"map_{d}.txt").read_text() == (tmp_path / f"py_{d}.txt").read_text(), d
+    p = m.report["parameters"]
+    assert p["safe_projection"] is True and p["safe_projection_in_ramp"] is False
+    assert m.report["elastic"]["guard"]["judged_untangled"] is False
+    plain = shapemap.surface_map(VA, FA, VB, FB, method="elastic", elastic_iterations=4, seed=1,
+                                 elastic_plain_projection=True, **FAST_BIM)
+    assert plain.report["parameters"]["safe_projection"] is False
+    assert plain.report["elastic"]["guard"]["judged_untangled"] is True
+
+
 def test_elastic_landmarks_are_the_anchors(surfaces, pair):
     """With landmarks, the elastic refinement's anchors (stage 0) are the landmarks themselves
     (docs/methods.md, "Feature anchors"); without, the AGD maxima the initial maps pair up."""
