@@ -8,6 +8,8 @@
 #include "shapemap/volume/volume_map_pipeline.h"
 #include <gtest/gtest.h>
 
+#include <cstdio>
+
 using namespace shapemap;
 
 TEST(VolumeMapPipeline, LandmarksGoToTheNearestBoundaryVertex) {
@@ -67,6 +69,10 @@ TEST(SurfaceMapPipeline, InvertingTheIdentityGivesTheIdentity) {
 // maps are the surface-map command's (with the same BIM options), bit for bit, have no more
 // flipped or collapsed triangles than the refinement alone, and its description names the stage.
 // Since 6 Dec 2026 its default is surface-map's (reverse candidates): checked the same way.
+// How short a refinement still leaves folds on the generated pair depends on the processor (BIM's
+// choice among nearly tied candidates): 2 outer iterations did on the machines before 7 Dec 2026;
+// on the 38th session's one even 1 removed them all, and 0 (BIM's maps through the refinement's
+// own guard) left 2. So the longest of 2, 1, 0 that leaves folds is taken.
 TEST(VolumeMapPipeline, AutoInitSurfaceMapsAreTheSurfaceMapCommands) {
   const GeneratedPair pair = make_creature_pair(2, PairKind::NonIsometric, 1200);
   const TriMesh &A = pair.A, &B = pair.B;
@@ -77,11 +83,15 @@ TEST(VolumeMapPipeline, AutoInitSurfaceMapsAreTheSurfaceMapCommands) {
   SurfaceMapRequest req;
   req.method = "elastic";
   req.bim.reverse_candidates = false;  // each direction's own blend leaves folds on this pair
-  req.elastic.iterations = 2;  // a short refinement leaves folds for the stage to work on
   req.elastic.untangle = false;
-  const SurfaceMapRun alone = run_surface_map(A, B, req);
-  const int bad_alone = bad(A, B, alone.AB) + bad(B, A, alone.BA);
+  int bad_alone = 0;
+  for (int iterations = 2; iterations >= 0 && bad_alone == 0; --iterations) {
+    req.elastic.iterations = iterations;  // a short refinement leaves folds for the stage to work on
+    const SurfaceMapRun alone = run_surface_map(A, B, req);
+    bad_alone = bad(A, B, alone.AB) + bad(B, A, alone.BA);
+  }
   ASSERT_GT(bad_alone, 0) << "the refinement alone must leave folds for this test to see the stage";
+  std::printf("%d outer iterations leave %d folds\n", req.elastic.iterations, bad_alone);
   req.elastic.untangle = true;
   const SurfaceMapRun full = run_surface_map(A, B, req);
   std::string used;
