@@ -60,8 +60,8 @@ struct SymmetricVolumeMapOptions {
   // landing then use alpha again. From the start, alpha = 0.2 tripled the largest error on the
   // generated pair with ground truth; as a continuation it lowers E_R on every real bench pair
   // (docs/methods.md, "A second stage 4 at a lower alpha"). < 0 = off (the paper's alpha).
-  // 0.005 since the 38th session (was 0.1): E_R 0.22-0.88x of 0.1's on seven bench pairs, E_ARAP
-  // -15% ... +18%, the truth error on the generated pairs within 0.2% (docs/methods.md,
+  // 0.005 since the 38th session (was 0.1): E_R 0.17-0.88x of 0.1's on ten bench pairs, E_ARAP
+  // -15% ... +37%, the truth error on the generated pairs within 0.2% (docs/methods.md,
   // "alpha_final = 0.005").
   double alpha_final = 0.005;
   double gamma = 25.0;         // Eq. 25, Sec. 5.5: weight of the projection term E_P
