@@ -60,7 +60,7 @@ struct SymmetricVolumeMapOptions {
   // landing then use alpha again. From the start, alpha = 0.2 tripled the largest error on the
   // generated pair with ground truth; as a continuation it lowers E_R on every real bench pair
   // (docs/methods.md, "A second stage 4 at a lower alpha"). < 0 = off (the paper's alpha).
-  // 0.005 since the 38th session (was 0.1): E_R 0.17-0.88x of 0.1's on ten bench pairs, E_ARAP
+  // 0.005 since the 38th session (was 0.1): E_R 0.14-0.88x of 0.1's on 11 bench pairs, E_ARAP
   // -15% ... +37%, the truth error on the generated pairs within 0.2% (docs/methods.md,
   // "alpha_final = 0.005").
   double alpha_final = 0.005;
