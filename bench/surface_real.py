@@ -7,8 +7,9 @@ Pairs (they read ../shared/data, or $SHAPEMAP_DATA; skipped when it is absent):
   camel-II-JJ     camel-gallop-II -> camel-gallop-JJ, near-isometric poses without ground
                   truth, scored by reversibility and distortion
   glasses         shrec07-41 -> shrec07-44 (the volume bench's pair), no landmarks: scored by
-                  reversibility, distortion and where each arm lands (BIM's symmetric flip
+                  reversibility, distortion, where each arm lands (BIM's symmetric flip
                   sends an arm to the other side: docs/methods.md, "Too few features to blend")
+                  and whether an arm collapses onto a point (the arm spread)
   busts           shrec07-302 -> shrec07-314 (the volume bench's pair), no ground truth: scored
                   also by whether heads stay up (BIM maps them upside down: docs/methods.md,
                   "The busts: upside down")
@@ -174,6 +175,32 @@ def glasses_arms(pydir, A, B, out):
     return worst
 
 
+def glasses_arm_spread(pydir, A, B, out):
+    """How much of the other's arm each arm of SHREC'07 glasses 41 -> 44 covers (arms and sides as in
+    glasses_arms). Along an arm, t runs from 0 where it leaves the frame to 1 at its tip (41: y from
+    0.3, 44: -z from 0.4); the images' t on the other's arm, clipped to [0, 1], at the arm's t = 0.1
+    and t = 0.9 (medians over t +- 0.05); the spread is their difference: 0.8 when arc length is
+    kept, about 0 when the arm collapses to a point of the other (BIM's conformal maps do this on
+    thin parts: docs/methods.md, "Thin parts"). Returns the smallest of the four (two arms, two
+    directions)."""
+    sys.path.insert(0, pydir)
+    import numpy as np
+    import shapemap
+    (VA, FA), (VB, FB) = shapemap.read_surface(A), shapemap.read_surface(B)
+    P = shapemap.read_map(os.path.join(out, "map_AB.txt"), VB, FB).points()
+    Q = shapemap.read_map(os.path.join(out, "map_BA.txt"), VA, FA).points()
+    along_A = lambda X: (X[:, 1] - 0.3) / (VA[:, 1].max() - 0.3)
+    along_B = lambda X: (-X[:, 2] - 0.4) / (-VB[:, 2].min() - 0.4)
+    worst = 1.0
+    for side in (1, -1):
+        for V, X, t_src, t_dst in ((VA, P, along_A, along_B), (VB, Q, along_B, along_A)):
+            t, ti = t_src(V), np.clip(t_dst(X), 0, 1)
+            m = (side * V[:, 0] > 0) & (t >= 0)
+            near = lambda c: float(np.median(ti[m & (np.abs(t - c) <= 0.05)]))
+            worst = min(worst, near(0.9) - near(0.1))
+    return worst
+
+
 def heads_up(VA, VB, P, Q):
     """Whether a map between two upright shapes (+y up) keeps heads up: of the top 15% of each
     shape's height and of its bottom 15%, the fraction of vertices whose image (P: A's vertices on
@@ -218,6 +245,9 @@ def run_pair(r, data, work, name, binhash, fresh, any_binary, extra):
                 if name.startswith("busts") and row.get("exit_code") == 0 and "heads_up" not in row:
                     row["heads_up"] = busts_heads_up(r.pydir, A, B, out)  # a row cached before the check
                     json.dump(row, open(cache, "w"), indent=1)
+                if name == "glasses" and row.get("exit_code") == 0 and "arm_spread" not in row:
+                    row["arm_spread"] = glasses_arm_spread(r.pydir, A, B, out)  # cached before the check
+                    json.dump(row, open(cache, "w"), indent=1)
                 rows.append(row)
                 continue
         if method == "bim":
@@ -240,6 +270,7 @@ def run_pair(r, data, work, name, binhash, fresh, any_binary, extra):
                 row["exit_code"] = "evaluate failed"  # the maps exist: elastic still runs
             elif name == "glasses":
                 row["arms_on_their_own_arm"] = glasses_arms(r.pydir, A, B, out)
+                row["arm_spread"] = glasses_arm_spread(r.pydir, A, B, out)
             elif name.startswith("busts"):
                 row["heads_up"] = busts_heads_up(r.pydir, A, B, out)
         print("bench: %s %s: exit %s, %.1f s" % (name, method, code, wall), file=sys.stderr)
@@ -363,6 +394,11 @@ def targets(rows):
                 f = row.get("arms_on_their_own_arm")
                 checks.append(("glasses %s: each arm onto its own arm (>= 90%% of its vertices, both directions)" % m,
                                f is not None and f >= 0.9, "worst arm %s" % ("–" if f is None else "%.0f%%" % (100 * f))))
+            # BIM collapses the arms (its conformal maps on thin parts): its spread is shown, not judged.
+            f, fb = e.get("arm_spread"), b.get("arm_spread")
+            checks.append(("glasses elastic: no arm collapsed (arm spread >= 0.2: 0.8 when arc length is kept, "
+                           "about 0 when an arm lands on a point; both directions)", f is not None and f >= 0.2,
+                           "worst arm %s (BIM %s)" % tuple("–" if x is None else "%.2f" % x for x in (f, fb))))
         if p.startswith("busts"):
             for m, row in (("BIM", b), ("elastic", e)):
                 f = row.get("heads_up")

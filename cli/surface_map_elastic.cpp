@@ -86,6 +86,10 @@ void add_elastic_stage_options(CLI::App* app, ElasticSettings& o) {
                   "lowers the flipped + collapsed count of both maps (default 3; 1: one pass; "
                   "docs/methods.md)")
       ->check(CLI::Range(1, 100));
+  app->add_flag("--elastic-no-collapsed-parts", [&o](std::int64_t) { o.collapsed_parts = false; },
+                "elastic: start from the initial maps as they are (default: the parts they collapse, "
+                "e.g. thin parts that BIM's conformal maps shrink to a point, are first put back at "
+                "their own shape by as-rigid-as-possible and projected; ours, docs/methods.md)");
   app->add_flag("--elastic-no-feature-anchors", [&o](std::int64_t) { o.feature_anchors = false; },
                 "elastic: no anchors (default: the AGD maxima that the initial maps send onto each "
                 "other, or the landmarks, keep their partners through the refinement; ours, "

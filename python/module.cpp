@@ -149,6 +149,7 @@ py::dict surface_map(const RowMatrixXd& VA, const RowMatrixXi& FA, const RowMatr
   e.search_untangle = o["elastic_search_untangle"].cast<bool>();
   e.untangle_passes = o["elastic_untangle_passes"].cast<int>();
   e.feature_anchors = o["elastic_feature_anchors"].cast<bool>();
+  e.collapsed_parts = o["elastic_collapsed_parts"].cast<bool>();
   e.plain_projection = o["elastic_plain_projection"].cast<bool>();
   e.plain_projection_in_ramp = o["elastic_plain_projection_in_ramp"].cast<bool>();
   e.guard_before_untangling = o["elastic_guard_before_untangling"].cast<bool>();

@@ -165,7 +165,7 @@ def surface_map(VA, FA, VB, FB, method="bim", landmarks=None, init=None, init_re
                 elastic_untangle_passes=3, elastic_feature_anchors=True, elastic_plain_projection=False,
                 elastic_plain_projection_in_ramp=False, elastic_guard_before_untangling=False,
                 elastic_anchors_hold_to_end=False, elastic_anchor_weight=-1.0, elastic_anchor_tolerance=-1.0,
-                names=("A", "B"),
+                elastic_collapsed_parts=True, names=("A", "B"),
                 prepared=None, progress=None):
     """Map between two closed genus-0 surfaces (`shapemap surface-map`).
 
@@ -182,7 +182,8 @@ def surface_map(VA, FA, VB, FB, method="bim", landmarks=None, init=None, init_re
     part not re-seated); elastic_search_untangle=False: `--elastic-no-search-untangle` (the folds
     the other stages leave are left);
     elastic_untangle_passes: `--elastic-untangle-passes` (the stages repeated while folds fall);
-    elastic_feature_anchors=False: `--elastic-no-feature-anchors`; elastic_anchors_hold_to_end,
+    elastic_collapsed_parts=False: `--elastic-no-collapsed-parts` (the initial maps' collapsed parts
+    left collapsed); elastic_feature_anchors=False: `--elastic-no-feature-anchors`; elastic_anchors_hold_to_end,
     elastic_anchor_weight, elastic_anchor_tolerance: `--elastic-anchors-hold-to-end`,
     `--elastic-anchor-weight`, `--elastic-anchor-tolerance` (-1: the default). The projection
     (Sec. 5.1): elastic_plain_projection=True is `--elastic-plain-projection` (the plain P/Q steps
@@ -219,6 +220,7 @@ def surface_map(VA, FA, VB, FB, method="bim", landmarks=None, init=None, init_re
                 elastic_search_untangle=bool(elastic_search_untangle),
                 elastic_untangle_passes=int(elastic_untangle_passes),
                 elastic_feature_anchors=bool(elastic_feature_anchors),
+                elastic_collapsed_parts=bool(elastic_collapsed_parts),
                 elastic_plain_projection=bool(elastic_plain_projection),
                 elastic_plain_projection_in_ramp=bool(elastic_plain_projection_in_ramp),
                 elastic_guard_before_untangling=bool(elastic_guard_before_untangling),

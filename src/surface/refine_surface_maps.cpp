@@ -121,17 +121,23 @@ SurfaceRefinement refine_surface_maps(const TriMesh& A, const TriMesh& B, const 
                                       const BarycentricMap& init_BA, const SurfaceRefinementOptions& opt) {
   SurfaceRefinement out;
   ElasticOptions eo = opt.elastic;
+  BarycentricMap P = init_AB, Q = init_BA;
+  if (opt.reextend_collapsed) {
+    P = reextend_collapsed_parts(A, B, init_AB, opt.collapsed_parts, &out.collapsed_AB);
+    if (eo.model == ElasticModel::Bijective && init_BA.size() == B.num_vertices())
+      Q = reextend_collapsed_parts(B, A, init_BA, opt.collapsed_parts, &out.collapsed_BA);
+  }
   if (!eo.anchors.A.empty()) {
     out.anchors.A = eo.anchors.A;
     out.anchors.B = eo.anchors.B;
   } else if (opt.feature_anchors && eo.model == ElasticModel::Bijective) {
     const auto t0 = Clock::now();
-    out.anchors = mutual_feature_anchors(A, B, init_AB, init_BA, opt.anchoring);
+    out.anchors = mutual_feature_anchors(A, B, P, Q, opt.anchoring);
     out.anchor_seconds = seconds_since(t0);
     eo.anchors.A = out.anchors.A;
     eo.anchors.B = out.anchors.B;
   }
-  out.elastic = elastic_correspondence(A, B, init_AB, init_BA, eo);
+  out.elastic = elastic_correspondence(A, B, P, Q, eo);
   ElasticResult& r = out.elastic;
   if (!r.map_AB.bary.allFinite() || !r.Y.allFinite()) throw Error("elastic: non-finite result");
   if (!opt.untangle) return out;

@@ -260,6 +260,22 @@ void run_bim(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& req, c
                 " candidates";
 }
 
+// Before stage 0 of refine_surface_maps.h: the initial maps' collapsed parts re-extended.
+nlohmann::json collapsed_parts_json(const SurfaceRefinement& ref, const SurfaceRefinementOptions& ro, bool bij) {
+  auto one = [](const CollapsedPartResult& c) {
+    return nlohmann::json{{"regions", c.regions}, {"vertices", c.vertices},
+                          {"degenerate_faces", c.degenerate_faces}, {"seconds", c.seconds}};
+  };
+  nlohmann::json j = {{"enabled", ro.reextend_collapsed},
+                      {"stretch_limit", ro.collapsed_parts.stretch_limit},
+                      {"min_area", ro.collapsed_parts.min_area}};
+  if (ro.reextend_collapsed) {
+    j["AB"] = one(ref.collapsed_AB);
+    if (bij) j["BA"] = one(ref.collapsed_BA);
+  }
+  return j;
+}
+
 // The initial maps of the elastic method, on the repaired surfaces. q_given: false when
 // B -> A was made here from A -> B (not an initial map of the user's).
 std::string elastic_initial_maps(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& req,
@@ -561,6 +577,7 @@ void run_elastic(const TriMesh& A, const TriMesh& B, const SurfaceMapRequest& re
   run.report["elastic"] = elastic_section_json(r, eo, bij);
   run.report["elastic"]["untangle"] = untangle_json;
   run.report["elastic"]["anchors"] = anchors_json;  // stage 0, in the repaired meshes' numbering
+  run.report["elastic"]["collapsed_parts"] = collapsed_parts_json(ref, ro, bij);  // before stage 0
   elastic_metrics(RA, RB, initAB, initBA, r, bij, truth, run);
   run.report["elastic"]["guard"]["judged_untangled"] = ro.guard_untangled;
   run.report["elastic"]["guard"]["revised"] = ref.guard_revised;
@@ -579,6 +596,7 @@ void set_refinement_stages(const ElasticSettings& o, SurfaceRefinementOptions& r
   ro.untangle_passes = o.untangle_passes;
   ro.guard_untangled = !o.guard_before_untangling;
   ro.feature_anchors = o.feature_anchors;
+  ro.reextend_collapsed = o.collapsed_parts;
   if (o.anchor_tolerance >= 0) ro.anchoring.tolerance = o.anchor_tolerance;
 }
 

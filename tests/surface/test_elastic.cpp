@@ -10,6 +10,7 @@
 #include "shapemap/surface/elastic.h"
 #include "shapemap/surface/refine_surface_maps.h"
 #include "shapemap/surface/shell_energy.h"
+#include "surface_test_util.h"
 
 #include <Eigen/Dense>
 #include <Eigen/Geometry>
@@ -21,6 +22,7 @@
 #include <random>
 
 using namespace shapemap;
+using shapemap::testing::identity_map;
 
 namespace {
 
@@ -67,20 +69,6 @@ BarycentricMap project(const Eigen::MatrixXd& Pts, const TriMesh& T) {
     m.bary.row(i) = res[i].bary.head<3>().transpose();
     m.bary.row(i) /= m.bary.row(i).sum();
   }
-  return m;
-}
-
-// The identity map of a mesh onto itself.
-BarycentricMap identity_map(const TriMesh& M) {
-  BarycentricMap m;
-  m.elem.resize(M.num_vertices());
-  m.bary.setZero(M.num_vertices(), 3);
-  for (int f = 0; f < M.num_faces(); ++f)
-    for (int j = 0; j < 3; ++j) {
-      m.elem(M.F(f, j)) = f;
-      m.bary.row(M.F(f, j)).setZero();
-      m.bary(M.F(f, j), j) = 1.0;
-    }
   return m;
 }
 

@@ -53,6 +53,9 @@ struct ElasticSettings {
   bool bridge_untangle = true;  // stage 5 of refine_surface_maps.h (--elastic-no-bridge-untangle)
   bool search_untangle = true;  // stage 6 of refine_surface_maps.h (--elastic-no-search-untangle)
   int untangle_passes = 3;      // stages 2-4 repeated while folds fall (--elastic-untangle-passes)
+  // Before stage 0 of refine_surface_maps.h: the initial maps' collapsed parts re-extended
+  // (collapsed_parts.h). --elastic-no-collapsed-parts.
+  bool collapsed_parts = true;
   // Stage 0 of refine_surface_maps.h: feature anchors (feature_anchors.h; the landmarks when
   // the initial maps come from landmarks). --elastic-no-feature-anchors, --elastic-anchor-weight.
   bool feature_anchors = true;
