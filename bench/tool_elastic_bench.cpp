@@ -20,6 +20,7 @@
 #include "shapemap/eval/surface_metrics.h"
 #include "shapemap/generate.h"
 #include "shapemap/surface/bim.h"
+#include "shapemap/surface/collapsed_parts.h"
 #include "shapemap/surface/elastic.h"
 #include "shapemap/surface/feature_anchors.h"
 #include "shapemap/maps.h"
@@ -99,15 +100,19 @@ double speed_run(int nv) {
   env_options(o);
   t0 = now();
   const std::clock_t c0 = std::clock();
-  // stage 0 of refine_surface_maps.h, as surface-map runs it (SHAPEMAP_ELASTIC_ANCHORS=0: none)
+  // before stage 0 of refine_surface_maps.h, as surface-map runs it: collapsed parts re-extended
+  CollapsedPartResult cab_r, cba_r;
+  const BarycentricMap P = reextend_collapsed_parts(pair.A, pair.B, bim.AB.map, {}, &cab_r);
+  const BarycentricMap Q = reextend_collapsed_parts(pair.B, pair.A, bim.BA.map, {}, &cba_r);
+  // stage 0, as surface-map runs it (SHAPEMAP_ELASTIC_ANCHORS=0: none)
   FeatureAnchors anchors;
   if (env_int("SHAPEMAP_ELASTIC_ANCHORS", 1) != 0) {
-    anchors = mutual_feature_anchors(pair.A, pair.B, bim.AB.map, bim.BA.map);
+    anchors = mutual_feature_anchors(pair.A, pair.B, P, Q);
     o.anchors.A = anchors.A;
     o.anchors.B = anchors.B;
   }
   const double t_anchors = now() - t0;
-  ElasticResult r = elastic_correspondence(pair.A, pair.B, bim.AB.map, bim.BA.map, o);
+  ElasticResult r = elastic_correspondence(pair.A, pair.B, P, Q, o);
   const double t_el = now() - t0;
   const double cpu_el = double(std::clock() - c0) / CLOCKS_PER_SEC;
   const int K = std::max(1, r.outer_iterations);
@@ -119,8 +124,10 @@ double speed_run(int nv) {
               o.precondition_stiffness);
   std::printf("  tighter start of the first %d outer iterations: %s (initial maps fold %.3g%% of the triangles)\n",
               o.inner_f_tol_start_iterations, r.tight_start ? "yes" : "no", 100 * r.initial_fold_fraction);
-  std::printf("  feature anchors (included above): %zu pairs, %.2f s; held A->B %d, B->A %d\n", anchors.A.size(),
-              t_anchors, r.anchors_holding_AB, r.anchors_holding_BA);
+  std::printf("  collapsed parts re-extended (included above): regions %d / %d, %.2f s\n", cab_r.regions,
+              cba_r.regions, cab_r.seconds + cba_r.seconds);
+  std::printf("  feature anchors (included above, with the re-extension): %zu pairs, %.2f s; held A->B %d, B->A %d\n",
+              anchors.A.size(), t_anchors, r.anchors_holding_AB, r.anchors_holding_BA);
   std::printf("  per outer iteration: %.4f s = projection %.4f s + deformation %.4f s\n",
               (r.time_projection + r.time_deformation) / K, r.time_projection / K,
               r.time_deformation / K);
