@@ -5,7 +5,7 @@
 #include "shapemap/geometry/closest_point.h"
 #include "shapemap/geometry/laplacian.h"
 #include "shapemap/geometry/sparse_cholesky.h"
-#include "shapemap/geometry/svd3.h"
+#include "shapemap/geometry/procrustes.h"
 #include "shapemap/timing.h"
 
 #include <Eigen/Eigenvalues>
@@ -100,8 +100,7 @@ bool place_rigidly(const Eigen::MatrixXd& Vs, const Eigen::MatrixXd& X, const st
   mq /= double(handles.size());
   Eigen::Matrix3d C = Eigen::Matrix3d::Zero();
   for (int v : handles) C += (X.row(v) - mq).transpose() * (Vs.row(v) - mp);
-  const SignedSVD3 svd = signed_svd3(C);  // proper rotations: no reflection
-  const Eigen::Matrix3d R = svd.U * svd.V.transpose();
+  const Eigen::Matrix3d R = procrustes_rotation(C);
   for (int v : region) Y.row(v) = (Vs.row(v) - mp) * R.transpose() + mq;
   return true;
 }
@@ -135,8 +134,7 @@ void arap(const Eigen::MatrixXd& Vs, const Eigen::SparseMatrix<double>& L, const
       Eigen::Matrix3d C = Eigen::Matrix3d::Zero();
       for (Eigen::SparseMatrix<double>::InnerIterator e(L, v); e; ++e)
         if (e.row() != v) C -= e.value() * (Y.row(v) - Y.row(e.row())).transpose() * (Vs.row(v) - Vs.row(e.row()));
-      const SignedSVD3 svd = signed_svd3(C);
-      R[v] = svd.U * svd.V.transpose();
+      R[v] = procrustes_rotation(C);
     }
     Eigen::MatrixXd b = Eigen::MatrixXd::Zero(k, 3);
 #pragma omp parallel for schedule(dynamic, 256)

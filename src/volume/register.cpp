@@ -2,9 +2,9 @@
 #include "shapemap/volume/register.h"
 #include "shapemap/timing.h"
 #include "shapemap/error.h"
+#include "shapemap/geometry/procrustes.h"
 #include "shapemap/volume/symmetric_map.h"
 #include <Eigen/LU>
-#include <Eigen/SVD>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -51,15 +51,11 @@ Eigen::Matrix3d ball_procrustes_rotation(const Eigen::MatrixXd& f, const Eigen::
                                          const Eigen::VectorXd& w) {
   if (f.rows() != V.rows() || w.size() != V.rows() || f.cols() != 3 || V.cols() != 3)
     throw InputError("ball_procrustes_rotation: f, V must be n×3 and w of size n");
-  // min sum w ||g f - v||^2  <=>  max tr(g H), H = sum w f v^T.
+  // min sum w ||g f - v||^2: H^T = sum w v f^T is procrustes_rotation's C.
   Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
   for (Eigen::Index i = 0; i < f.rows(); ++i)
     H += w(i) * f.row(i).transpose() * V.row(i);
-  Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  const Eigen::Matrix3d U = svd.matrixU(), W = svd.matrixV();
-  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
-  D(2, 2) = (W * U.transpose()).determinant() < 0 ? -1.0 : 1.0;
-  return W * D * U.transpose();
+  return procrustes_rotation(H.transpose());
 }
 
 Eigen::MatrixXd linear_homotopy_frame(const Eigen::MatrixXd& V, const Eigen::MatrixXd& phi, int k,
