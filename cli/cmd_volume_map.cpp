@@ -335,6 +335,11 @@ void add_post_repair_and_landing_options(CLI::App* app, VolumeMapArgs& a) {
                     "project at once)")
       ->capture_default_str()
       ->check(CLI::Range(0, 20));
+  app->add_option("--land-uncovered-edges", a.opt.land_uncovered_edges,
+                  "Landing: one more gamma round, there alone, where a target boundary vertex is farther "
+                  "than this many mean edges from the image (ours; 0 = off)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 100.0));
   app->add_option("--land-gamma-factor", a.opt.land_gamma_factor,
                     "Landing: factor on gamma per round")
       ->capture_default_str()

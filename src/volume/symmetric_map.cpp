@@ -278,6 +278,8 @@ DirectionalEnergy::DirectionalEnergy(const TetMesh& Mi, const TetMesh& Mj) : Mi_
   aj_ = boundary_vertex_areas(bj_.surface);
   si_ = ai_.sum();
   sj_ = aj_.sum();
+  ai_rest_ = ai_;
+  aj_rest_ = aj_;
   Fi_vol_ = faces_in_volume_numbering(bi_);
   target_boundary_.build(bj_.surface.V, bj_.surface.F);
   bi_faces_ = boundary_face_bits(Mi_, bi_);
@@ -496,6 +498,16 @@ void DirectionalEnergy::set_anchors(const std::vector<int>& rows, const Eigen::M
   anchor_rows_ = rows;
   anchor_pts_ = A;
   anchor_k_ = rows.empty() ? 0.0 : k;
+}
+
+void DirectionalEnergy::emphasize_projection(const std::vector<char>& marked_i, const std::vector<char>& marked_j,
+                                             double factor) {
+  ai_ = ai_rest_;
+  aj_ = aj_rest_;
+  for (size_t b = 0; b < marked_i.size() && b < size_t(ai_.size()); ++b)
+    if (marked_i[b]) ai_(Eigen::Index(b)) *= factor;
+  for (size_t b = 0; b < marked_j.size() && b < size_t(aj_.size()); ++b)
+    if (marked_j[b]) aj_(Eigen::Index(b)) *= factor;
 }
 
 // E_P,f (Eq. 21) and E_P,b (Eq. 22) into t, their gradients added to *grad if non-null.
@@ -812,6 +824,8 @@ void inverted_neighbourhood(const ArapEnergy& arap, const Eigen::MatrixXd& X, in
 // Insets toward the target's interior of the landing (fractions of the way from the closest
 // point on dM_j to the inner corner of the target tet behind it).
 constexpr double kLandInset[] = {0.0, 0.02, 0.05, 0.1, 0.2, 0.4};
+// The landing's local gamma round runs when at most this share of dM_j's vertices is uncovered.
+constexpr double kLandUncoveredShare = 0.01;
 constexpr double kPullInset = 0.05;  // pull_inside: anchors 5% of the way to their tet's centre
 // A landing move keeps a tet if its det J stays above this (or above its det J before the
 // move, when that is smaller): det J > 0 alone let the projection leave tets with four
@@ -1096,7 +1110,8 @@ class Landing {
     st_.evaluations += r.evaluations;
   }
 
-  // Step 1: gamma x land_gamma_factor per round, every vertex free (one symbolic analysis).
+  // Step 1: gamma x land_gamma_factor per round, every vertex free (one symbolic analysis);
+  // then, where the image does not cover dM_j, one more round there alone.
   void continue_gamma(Eigen::MatrixXd& X) {
     g_last_ = e_.gamma();
     if (opt_.land_gamma_rounds <= 0) return;
@@ -1104,12 +1119,30 @@ class Landing {
     for (int v = 0; v < int(all.size()); ++v) all[v] = v;
     ProjectedNewton pa(BlockHessian(Mi_.T, Mi_.num_vertices(), all));
     const double gamma = e_.gamma();
-    for (int r = 0; r < opt_.land_gamma_rounds; ++r) {
-      g_last_ *= opt_.land_gamma_factor;
+    auto round = [&]() {
       e_.set_weights(e_.alpha(), e_.beta(), g_last_, e_.backward_scale());
       const LbfgsResult rr = newton_rows(e_, pa, X, no_, st_.newton_seconds);
       st_.lbfgs_iterations += rr.iterations;
       st_.evaluations += rr.evaluations;
+    };
+    for (int r = 0; r < opt_.land_gamma_rounds; ++r) {
+      g_last_ *= opt_.land_gamma_factor;
+      round();
+    }
+    if (opt_.land_uncovered_edges > 0) {
+      const TetBoundary& bi = e_.boundary_i();
+      const double edge = mean_target_edge();
+      std::vector<char> mi, mj;
+      const int far = mark_uncovered(X, bi.surface.F, brows_, bj_.surface.V, bj_.surface.F,
+                                     opt_.land_uncovered_edges * edge, 2, 3.0 * edge, mi, mj);
+      // Local means few: where more of dM_j is uncovered the surfaces differ broadly (the
+      // busts: 483 vertices, E_R x5 with the round), and the rounds above keep the balance.
+      if (far > 0 && far <= kLandUncoveredShare * double(bj_.surface.V.rows())) {
+        st_.land_uncovered += far;
+        e_.emphasize_projection(mi, mj, opt_.land_gamma_factor);
+        round();
+        e_.emphasize_projection({}, {}, 1.0);
+      }
     }
     e_.set_weights(e_.alpha(), e_.beta(), gamma, e_.backward_scale());
   }
@@ -1869,6 +1902,7 @@ class SymmetricMapSolver {
       st.evaluations += part[dir].evaluations;
       st.land_unprojected += part[dir].land_unprojected;
       st.land_returned += part[dir].land_returned;
+      st.land_uncovered += part[dir].land_uncovered;
       for (int k = 0; k < 4; ++k) st.newton_seconds[k] += part[dir].newton_seconds[k];
       st.stop_reason += std::string(dir == 0 ? "AB " : ", BA ") +
                         (landed[dir] ? "landed" : "snapped (landing inverted more)");

@@ -1,5 +1,6 @@
 // Coverage of the target's boundary under moves of the image's vertices (target_coverage.h).
 #include "shapemap/volume/target_coverage.h"
+#include "shapemap/adjacency.h"
 #include "shapemap/geometry/closest_point.h"
 #include <algorithm>
 #include <cmath>
@@ -84,6 +85,38 @@ bool TargetCoverage::move(Eigen::MatrixXd& X, int s, const std::function<bool(in
     by_face_[face_[t]].push_back(t);
   }
   return true;
+}
+
+int mark_uncovered(const Eigen::MatrixXd& X, const Eigen::MatrixXi& Fi, const std::vector<int>& rows,
+                   const Eigen::MatrixXd& Vj, const Eigen::MatrixXi& Fj, double far, int rings, double reach,
+                   std::vector<char>& marked_i, std::vector<char>& marked_j) {
+  const int ns = int(rows.size()), nt = int(Vj.rows());
+  marked_i.assign(ns, 0);
+  marked_j.assign(nt, 0);
+  Eigen::MatrixXd Xs(ns, 3);
+  for (int s = 0; s < ns; ++s) Xs.row(s) = X.row(rows[s]);
+  const std::vector<ClosestPointResult> hit = ClosestPoint3(Xs, Fi).query(Vj);
+  std::vector<int> far_vertices, front;
+  for (int t = 0; t < nt; ++t)
+    if (hit[t].sqdist > far * far) far_vertices.push_back(t), marked_j[t] = 1;
+  if (far_vertices.empty()) return 0;
+  const std::vector<std::vector<int>> nb = vertex_neighbors(Fj, nt);
+  front = far_vertices;
+  for (int r = 0; r < rings; ++r) {
+    std::vector<int> next;
+    for (int t : front)
+      for (int u : nb[t])
+        if (!marked_j[u]) marked_j[u] = 1, next.push_back(u);
+    front.swap(next);
+  }
+  // Few far vertices (tens on the bench pairs): a scan of the image per far vertex.
+  for (int s = 0; s < ns; ++s)
+    for (int t : far_vertices)
+      if ((Xs.row(s) - Vj.row(t)).squaredNorm() <= reach * reach) {
+        marked_i[s] = 1;
+        break;
+      }
+  return int(far_vertices.size());
 }
 
 }  // namespace shapemap

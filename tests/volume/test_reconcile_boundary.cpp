@@ -129,3 +129,28 @@ TEST(TargetCoverage, RefusesMovesThatUncoverTheTarget) {
   }, 0.0));
   EXPECT_LT(c.distances()[4], 1e-12);
 }
+
+// The landing's local gamma round (mark_uncovered): with the image's apex slid down a side
+// face, the target's apex is the one vertex farther from the image than a threshold below
+// its gap; it is marked with `rings` rings of the target, and of the image only the vertices
+// within `reach` of it (the slid apex, 0.42 away; the base corners are 1.7 away). Above the
+// gap nothing is marked.
+TEST(TargetCoverage, MarksWhereTheImageDoesNotCoverTheTarget) {
+  const Eigen::MatrixXi F = pyramid_faces();
+  const Eigen::MatrixXd Vj = pyramid_vertices();
+  Eigen::MatrixXd X = Vj;
+  X.row(4) = Eigen::RowVector3d(0.3, 0, 0.7);
+  const std::vector<int> rows{0, 1, 2, 3, 4};
+  const double gap = TargetCoverage(X, F, rows, Vj).distances()[4];
+  ASSERT_GT(gap, 0.1);
+  std::vector<char> mi, mj;
+  EXPECT_EQ(mark_uncovered(X, F, rows, Vj, F, 0.5 * gap, 0, 0.5, mi, mj), 1);
+  EXPECT_EQ(mj, (std::vector<char>{0, 0, 0, 0, 1}));
+  EXPECT_EQ(mi, (std::vector<char>{0, 0, 0, 0, 1}));
+  EXPECT_EQ(mark_uncovered(X, F, rows, Vj, F, 0.5 * gap, 1, 2.0, mi, mj), 1);
+  EXPECT_EQ(mj, (std::vector<char>{1, 1, 1, 1, 1}));
+  EXPECT_EQ(mi, (std::vector<char>{1, 1, 1, 1, 1}));
+  EXPECT_EQ(mark_uncovered(X, F, rows, Vj, F, 2.0 * gap, 2, 2.0, mi, mj), 0);
+  EXPECT_EQ(mj, (std::vector<char>(5, 0)));
+  EXPECT_EQ(mi, (std::vector<char>(5, 0)));
+}

@@ -130,6 +130,23 @@ TEST_P(DirectionalEnergyGradient, MatchesFiniteDifferences) {
   }
   DirectionalEnergy::Terms t;
   e.evaluate(X, nullptr, &t);
+  if (GetParam() == 7) {  // + the landing's local gamma round: a_b x 4 on every other vertex
+    std::vector<char> mi(e.boundary_i().to_volume.size()), mj(e.boundary_j().to_volume.size());
+    for (size_t b = 0; b < mi.size(); ++b) mi[b] = char(b % 2);
+    for (size_t b = 0; b < mj.size(); ++b) mj[b] = char(b % 2 == 0);
+    e.emphasize_projection(mi, mj, 4.0);
+    DirectionalEnergy::Terms te;
+    e.evaluate(X, nullptr, &te);
+    EXPECT_GT(te.projection_forward, 1.5 * t.projection_forward);
+    EXPECT_GT(te.projection_backward, 1.5 * t.projection_backward);
+    EXPECT_LT(te.projection_forward, 4.0 * t.projection_forward);
+    e.emphasize_projection({}, {}, 1.0);  // restores Eq. 21, 22
+    DirectionalEnergy::Terms tr;
+    e.evaluate(X, nullptr, &tr);
+    EXPECT_DOUBLE_EQ(tr.projection_forward, t.projection_forward);
+    EXPECT_DOUBLE_EQ(tr.projection_backward, t.projection_backward);
+    e.emphasize_projection(mi, mj, 4.0);
+  }
   if (GetParam() == 6) EXPECT_GT(t.anchors, 0);
   EXPECT_GT(t.arap, 0);
   EXPECT_GT(t.reversibility, 0);
@@ -138,7 +155,7 @@ TEST_P(DirectionalEnergyGradient, MatchesFiniteDifferences) {
   EXPECT_GT(t.projection_backward, 0);
   EXPECT_LT(gradient_error(e, X), 1e-5);
 }
-INSTANTIATE_TEST_SUITE_P(Terms, DirectionalEnergyGradient, ::testing::Range(0, 7));
+INSTANTIATE_TEST_SUITE_P(Terms, DirectionalEnergyGradient, ::testing::Range(0, 8));
 
 // The Hessian of the X-step objective (issue 19, projected Newton): every term but E_P,b
 // is exact, so at a stretched map (where ARAP's projection changes nothing) it equals
@@ -166,6 +183,11 @@ TEST_P(DirectionalEnergyHessian, MatchesFiniteDifferencesOfTheGradient) {
     A << 0.1, 0.2, 0.3, -0.2, 0.4, 0.1;
     e.set_anchors({1, 4}, A, 7.0);
   }
+  if (GetParam() == 6) {  // + the landing's local gamma round (E_P,f's a_b x 4 on every other vertex)
+    std::vector<char> mi(e.boundary_i().to_volume.size());
+    for (size_t b = 0; b < mi.size(); ++b) mi[b] = char(b % 2);
+    e.emphasize_projection(mi, {}, 4.0);
+  }
   const int n = p.A.num_vertices();
   std::vector<int> all(n);
   for (int v = 0; v < n; ++v) all[v] = v;
@@ -179,7 +201,7 @@ TEST_P(DirectionalEnergyHessian, MatchesFiniteDifferencesOfTheGradient) {
   };
   EXPECT_LT(fd_jacobian_error(X, 1e-7, grad, D), 1e-5);
 }
-INSTANTIATE_TEST_SUITE_P(Terms, DirectionalEnergyHessian, ::testing::Range(0, 6));
+INSTANTIATE_TEST_SUITE_P(Terms, DirectionalEnergyHessian, ::testing::Range(0, 7));
 
 // From an inverted, collapsed start with every term of Eq. 25 (E_P,b by Gauss-Newton), the
 // assembled Hessian is positive semi-definite and each Newton step lowers the energy.

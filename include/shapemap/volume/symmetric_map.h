@@ -137,6 +137,14 @@ struct SymmetricVolumeMapOptions {
   // 0 rounds = project at once.
   int land_gamma_rounds = 2;
   double land_gamma_factor = 4.0;
+  // Ours: after those rounds, where a vertex of dM_j is farther than this many mean target
+  // edges from the image of dM_i (the image's triangles span a ridge or a crease there),
+  // one more round raises gamma by land_gamma_factor there alone: E_P,b of dM_j's vertices
+  // within 2 rings of such a vertex and E_P,f of dM_i's vertices whose images lie within 3
+  // mean edges of one (docs/methods.md, "A local gamma round where the image does not
+  // cover the target"). Only where at most 1% of dM_j's vertices are that far (a local
+  // miss, not surfaces that differ broadly). <= 0: off.
+  double land_uncovered_edges = 0.35;
   // Landing's repair: boundary vertices of inverted tets slide along dM_j, held near their
   // starting points by a spring this many times softer than the one to dM_j (ours).
   double land_slide_anchor = 0.03;
@@ -211,6 +219,7 @@ struct SymmetricMapStage {
   int factorizations = 0;    // joint X-steps: numeric Cholesky factorizations (newton_refactor_cg)
   int land_unprojected = 0;  // landing: boundary vertices put inside M_j or left, not on dM_j
   int land_returned = 0;     // landing: boundary vertices put back from inside M_j toward dM_j
+  int land_uncovered = 0;    // landing: vertices of dM_j the local gamma round pulled the image to
   int land_reconciled = 0;   // landing: boundary images moved to make the two maps mutually inverse
   std::string stop_reason;   // "gradient", "decrease", "iterations" (stages 2, 4)
   std::vector<double> energy_history, gradient_history;  // per outer iteration
@@ -322,6 +331,10 @@ class DirectionalEnergy {
   // Adds k sum_r |X_r - A_r|^2 over `rows` (landing stage: pulls images that lie outside
   // M_j to points just inside it), or removes it (empty rows). Copies its arguments.
   void set_anchors(const std::vector<int>& rows, const Eigen::MatrixXd& A, double k);
+  // Multiplies the lumped areas a_b of Eq. 21 (boundary vertices b of M_i with
+  // marked_i[b]) and of Eq. 22 (marked_j[b], vertices of dM_j) by `factor`: gamma raised
+  // there alone (landing stage). s_i, s_j stay; factor 1 (or empty flags) restores them.
+  void emphasize_projection(const std::vector<char>& marked_i, const std::vector<char>& marked_j, double factor);
   // Eq. 25 (X_ij part). X: n_i×3; grad n_i×3 if non-null.
   double evaluate(const Eigen::MatrixXd& X, Eigen::MatrixXd* grad = nullptr,
                   Terms* terms = nullptr) const;
@@ -374,6 +387,7 @@ class DirectionalEnergy {
   TetBoundary bi_, bj_;
   Eigen::VectorXd Ci_, Cj_;          // lumped tet masses
   Eigen::VectorXd ai_, aj_;          // lumped boundary areas per boundary (surface) vertex
+  Eigen::VectorXd ai_rest_, aj_rest_;  // the same without emphasize_projection's factors
   double ci_ = 1, cj_ = 1, si_ = 1, sj_ = 1;
   double alpha_ = 0.5, beta_ = 0.25, gamma_ = 25, bscale_ = 1;
   Eigen::MatrixXi Fi_vol_;           // boundary faces of M_i in volume numbering

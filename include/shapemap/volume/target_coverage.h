@@ -38,4 +38,13 @@ class TargetCoverage {
   std::vector<std::vector<int>> vf_, ring_, by_face_;
 };
 
+// Where the image does not cover the target (the landing's local gamma round): the vertices
+// of dM_j (Vj, faces Fj) farther than `far` from the image surface (Fi over X.row(rows[s])),
+// grown by `rings` rings of Fj (marked_j, per target vertex), and the image's surface
+// vertices s within `reach` of one of those far vertices (marked_i, per s). Returns the
+// number of far vertices (0: nothing marked).
+int mark_uncovered(const Eigen::MatrixXd& X, const Eigen::MatrixXi& Fi, const std::vector<int>& rows,
+                   const Eigen::MatrixXd& Vj, const Eigen::MatrixXi& Fj, double far, int rings, double reach,
+                   std::vector<char>& marked_i, std::vector<char>& marked_j);
+
 }  // namespace shapemap
