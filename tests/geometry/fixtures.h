@@ -11,6 +11,13 @@
 
 namespace shapemap::testing {
 
+// A rotation drawn uniformly from SO(3) (a normalized Gaussian quaternion).
+inline Eigen::Matrix3d random_rotation(std::mt19937& rng) {
+  std::normal_distribution<double> N(0, 1);
+  Eigen::Quaterniond q(N(rng), N(rng), N(rng), N(rng));
+  return q.normalized().toRotationMatrix();
+}
+
 // Icosphere of radius r: the icosahedron subdivided `levels` times, vertices projected to
 // the sphere; outward oriented. 10 * 4^levels + 2 vertices.
 inline void icosphere(int levels, double r, Eigen::MatrixXd& V, Eigen::MatrixXi& F) {

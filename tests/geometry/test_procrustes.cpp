@@ -1,19 +1,15 @@
 // Best rotation (orthogonal Procrustes without reflections) against the exact answer and a
 // brute-force search over rotations.
 #include "shapemap/geometry/procrustes.h"
+#include "geometry/fixtures.h"
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 #include <random>
 
 using namespace shapemap;
+using shapemap::testing::random_rotation;
 
 namespace {
-
-Eigen::Matrix3d rotation_from_gaussian_quaternion(std::mt19937& rng) {
-  std::normal_distribution<double> N;
-  Eigen::Quaterniond q(N(rng), N(rng), N(rng), N(rng));
-  return q.normalized().toRotationMatrix();
-}
 
 double procrustes_misfit(const Eigen::Matrix3d& R, const Eigen::MatrixXd& P, const Eigen::MatrixXd& Q) {
   return (P * R.transpose() - Q).squaredNorm();  // rows: sum_i ||R p_i - q_i||^2
@@ -25,7 +21,7 @@ TEST(Procrustes, RecoversAnExactRotation) {
   std::mt19937 rng(7);
   std::normal_distribution<double> N;
   for (int rep = 0; rep < 50; ++rep) {
-    const Eigen::Matrix3d R0 = rotation_from_gaussian_quaternion(rng);
+    const Eigen::Matrix3d R0 = random_rotation(rng);
     Eigen::MatrixXd P(6, 3);
     for (Eigen::Index i = 0; i < P.size(); ++i) P(i) = N(rng);
     const Eigen::MatrixXd Q = P * R0.transpose();
@@ -45,6 +41,6 @@ TEST(Procrustes, BeatsEveryRotationOfABruteForceSearchAndNeverReflects) {
     EXPECT_NEAR(R.determinant(), 1.0, 1e-12);
     EXPECT_LE((R.transpose() * R - Eigen::Matrix3d::Identity()).norm(), 1e-12);
     const double best = procrustes_misfit(R, P, Q);
-    for (int k = 0; k < 20000; ++k) EXPECT_GE(procrustes_misfit(rotation_from_gaussian_quaternion(rng), P, Q), best - 1e-12);
+    for (int k = 0; k < 20000; ++k) EXPECT_GE(procrustes_misfit(random_rotation(rng), P, Q), best - 1e-12);
   }
 }

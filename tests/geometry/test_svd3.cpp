@@ -1,19 +1,15 @@
 // Signed SVD: reconstruction, rotations, ordering and sign rules on many random cases.
 #include "shapemap/geometry/svd3.h"
+#include "geometry/fixtures.h"
 #include <Eigen/Dense>
 #include <gtest/gtest.h>
 #include <cmath>
 #include <random>
 
 using namespace shapemap;
+using shapemap::testing::random_rotation;
 
 namespace {
-
-Eigen::Matrix3d random_rotation(std::mt19937& rng) {
-  std::normal_distribution<double> N;
-  Eigen::Quaterniond q(N(rng), N(rng), N(rng), N(rng));
-  return q.normalized().toRotationMatrix();
-}
 
 // Checks every property of the convention; `scale` is a norm of A.
 void check(const Eigen::Matrix3d& A, const SignedSVD3& r, const char* what, int rep) {

@@ -8,18 +8,15 @@
 #include <Eigen/Dense>
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include "geometry/fixtures.h"
 #include <functional>
 #include <random>
 
 using namespace shapemap;
+using shapemap::testing::random_rotation;
 using shapemap::test_volume::grid_box;
 
 namespace {
-Eigen::Matrix3d random_rotation(std::mt19937& rng) {
-  std::normal_distribution<double> n(0, 1);
-  Eigen::Quaterniond q(n(rng), n(rng), n(rng), n(rng));
-  return q.normalized().toRotationMatrix();
-}
 
 // Brute-force min over SO(3) of ||J - R||_F^2 by a dense sweep plus local refinement.
 double min_over_rotations(const Eigen::Matrix3d& J) {
