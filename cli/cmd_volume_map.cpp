@@ -295,6 +295,11 @@ void add_alternation_options(CLI::App* app, VolumeMapArgs& a) {
                   "needs at most this many iterations (ours, speed; 0 = factor every Newton step)")
       ->check(non_negative())
       ->capture_default_str();
+  app->add_option("--newton-cg-tol", a.opt.newton_cg_rel_tol,
+                  "Joint X-steps: conjugate gradients stop at this fraction of the first preconditioned "
+                  "residual (ours, speed)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   app->add_option("--boundary-fixed-expansions", a.opt.boundary_fixed_expansions,
                   "Stage 2: when a full Newton step is accepted, try doubling it up to this many times "
                   "while Eq. 25 keeps falling (ours; 0 = off)")

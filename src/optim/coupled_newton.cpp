@@ -38,10 +38,12 @@ NewtonResult CoupledNewton::minimize(const NewtonValue& f, const CoupledHessian&
     }
     t = Clock::now();
     if (C_.rows() != n1 || C_.cols() != n2) throw Error("CoupledNewton: the coupling block has the wrong size");
+    // The two halves of the product are independent: at once (each reads all of p).
     auto apply = [&](const Eigen::VectorXd& p, Eigen::VectorXd& q) {
       q.resize(n1 + n2);
-      q.head(n1) = H1_.multiply(p.head(n1)) + C_ * p.tail(n2);
-      q.tail(n2) = H2_.multiply(p.tail(n2)) + C_.transpose() * p.head(n1);
+      run_pair([&] { q.head(n1) = H1_.multiply(p.head(n1)) + C_ * p.tail(n2); },
+               [&] { q.tail(n2) = H2_.multiply(p.tail(n2)) + C_.transpose() * p.head(n1); },
+               two_threads_available());
     };
     auto precondition = [&](const Eigen::VectorXd& r, Eigen::VectorXd& s) {
       s.resize(n1 + n2);

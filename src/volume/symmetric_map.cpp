@@ -1550,18 +1550,24 @@ class SymmetricMapSolver {
   void p_steps_at(const Eigen::MatrixXd& X12, const Eigen::MatrixXd& X21, bool fix_boundary,
                   SymmetricMapStage& st) {
     const auto tp = Clock::now();
-    // Independent (each reads both maps and writes its own P): at once, so that their
-    // serial parts (the BVH refit, the conversion to barycentric rows) overlap.
-    run_pair(
-        [&] {
-          p12_.run(X12, X21, alpha_, beta_, opt_.boundary_to_boundary, fix_boundary ? &bd1_ : nullptr,
-                   *held12_, P12_);
-        },
-        [&] {
-          p21_.run(X21, X12, alpha_, beta_, opt_.boundary_to_boundary, fix_boundary ? &bd2_ : nullptr,
-                   *held21_, P21_);
-        },
-        two_threads_available());
+    if (memo_.holds(X12, X21, alpha_, beta_, fix_boundary, held12_, held21_)) {
+      P12_ = memo_.P12;
+      P21_ = memo_.P21;
+    } else {
+      // Independent (each reads both maps and writes its own P): at once, so that their
+      // serial parts (the BVH refit, the conversion to barycentric rows) overlap.
+      run_pair(
+          [&] {
+            p12_.run(X12, X21, alpha_, beta_, opt_.boundary_to_boundary, fix_boundary ? &bd1_ : nullptr,
+                     *held12_, P12_);
+          },
+          [&] {
+            p21_.run(X21, X12, alpha_, beta_, opt_.boundary_to_boundary, fix_boundary ? &bd2_ : nullptr,
+                     *held21_, P21_);
+          },
+          two_threads_available());
+      memo_.keep(X12, X21, alpha_, beta_, fix_boundary, held12_, held21_, P12_, P21_);
+    }
     e12_.set_maps(P12_, P21_);
     e21_.set_maps(P21_, P12_);
     st.time_pstep += seconds_since(tp);
@@ -1726,6 +1732,7 @@ class SymmetricMapSolver {
     no.newton.max_expansions = fix_boundary ? opt_.boundary_fixed_expansions : 0;
     no.newton.grad_tol = 0;
     no.newton.refactor_cg = opt_.newton_refactor_cg;
+    no.newton.cg_rel_tol = opt_.newton_cg_rel_tol;
     const NewtonResult nr = cn.minimize(f, h, z, no);
     scatter_p(z);
     X12_ = Y12;
@@ -2006,11 +2013,13 @@ class SymmetricMapSolver {
     const Eigen::MatrixXd X12 = X12_, X21 = X21_;
     held12_ = &final12_;
     held21_ = &final21_;
+    memo_ = {};  // the held rows' contents are not in its key
     alpha_ = opt_.alpha_final;
     alternate("interior-reversible", true);
     alpha_ = opt_.alpha;
     held12_ = &P12_0_;
     held21_ = &P21_0_;
+    memo_ = {};
     e12_.set_barrier(nullptr);
     e21_.set_barrier(nullptr);
     relocate_interior(e12_.arap(), M2_, int1_, X12, X12_, final12_);
@@ -2094,6 +2103,35 @@ class SymmetricMapSolver {
   // map files' (relax_interiors_final).
   const BarycentricMap* held12_ = &P12_0_;
   const BarycentricMap* held21_ = &P21_0_;
+  // The last P-steps' inputs and answers (speed): each outer iteration's line 8 and the first
+  // value of its X-step ask again at the X's where the previous X-step's last P-steps ran.
+  // (Not bit for bit the same as running them again: a run takes the current P as its hint,
+  // and the hinted tet wins a tie, docs/methods.md.)
+  struct PStepMemo {
+    Eigen::MatrixXd X12, X21;
+    double alpha = -1, beta = -1;
+    bool fix_boundary = false;
+    const BarycentricMap *held12 = nullptr, *held21 = nullptr;
+    BarycentricMap P12, P21;
+    bool holds(const Eigen::MatrixXd& x12, const Eigen::MatrixXd& x21, double a, double b, bool fixed,
+               const BarycentricMap* h12, const BarycentricMap* h21) const {
+      return a == alpha && b == beta && fixed == fix_boundary && h12 == held12 && h21 == held21 &&
+             x12.rows() == X12.rows() && x21.rows() == X21.rows() && x12 == X12 && x21 == X21;
+    }
+    void keep(const Eigen::MatrixXd& x12, const Eigen::MatrixXd& x21, double a, double b, bool fixed,
+              const BarycentricMap* h12, const BarycentricMap* h21, const BarycentricMap& p12,
+              const BarycentricMap& p21) {
+      X12 = x12;
+      X21 = x21;
+      alpha = a;
+      beta = b;
+      fix_boundary = fixed;
+      held12 = h12;
+      held21 = h21;
+      P12 = p12;
+      P21 = p21;
+    }
+  } memo_;
   Eigen::MatrixXd X12_, X21_;
   std::vector<char> bd1_, bd2_;
   std::vector<int> all1_, all2_, int1_, int2_;

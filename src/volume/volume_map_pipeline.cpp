@@ -297,6 +297,7 @@ nlohmann::json parameters_json(const SymmetricVolumeMapOptions& o, const std::st
           {"newton_iterations", o.newton_iterations},
           {"newton_iterations_final", o.newton_iterations_final},
           {"newton_refactor_cg", o.newton_refactor_cg},
+          {"newton_cg_rel_tol", o.newton_cg_rel_tol},
           {"boundary_fixed_stage", o.fix_boundary_first}, {"interior_init", o.harmonic_interior ? "harmonic" : "closest"}, {"land_on_target", o.land_on_target},
           {"land_gamma_rounds", o.land_gamma_rounds}, {"land_gamma_factor", o.land_gamma_factor},
           {"land_uncovered_edges", o.land_uncovered_edges},

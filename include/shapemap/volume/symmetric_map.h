@@ -54,6 +54,9 @@ struct SymmetricVolumeMapOptions {
   // 13.8), metrics as good; on airplane -> bird the run ended with 5 / 7 inverted tets
   // instead of 1 / 0 and its landing took 678 s instead of 125 s (docs/methods.md).
   int newton_refactor_cg = 0;
+  // Joint X-steps: the conjugate-gradient solve of each Newton system stops when its
+  // preconditioned residual is this fraction of the first (NewtonOptions::cg_rel_tol).
+  double newton_cg_rel_tol = 1e-3;
   double alpha = 0.5;          // Eq. 25, Sec. 5.5: rigidity (ARAP) vs reversibility (E_R)
   // Ours (issue 19): >= 0 and != alpha: once stage 4 has converged at alpha, it runs again
   // (stage "full-reversible") at this alpha from the map found at alpha; stage 5 and the
