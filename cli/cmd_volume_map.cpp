@@ -98,8 +98,12 @@ void write_volume_map_outputs(const OutputDir& out, const VolumeInput& inA, cons
   const SymmetricVolumeMapResult& r = run.result;
   write_map(out.path("map_AB.txt"), r.map12);
   write_map(out.path("map_BA.txt"), r.map21);
-  write_vtk(out.path("A_on_B.vtk"), TetMesh{r.X12, A.T}, {}, {{"volume_ratio", tet_volume_ratios(A, r.X12)}});
-  write_vtk(out.path("B_on_A.vtk"), TetMesh{r.X21, B.T}, {}, {{"volume_ratio", tet_volume_ratios(B, r.X21)}});
+  // Per vertex, how far it lands from itself through the other shape and back (Eq. 18's
+  // integrand, in its own units): where the two maps disagree.
+  write_vtk(out.path("A_on_B.vtk"), TetMesh{r.X12, A.T}, {{"round_trip", round_trip_distances(A, B, r.map12, r.X21)}},
+            {{"volume_ratio", tet_volume_ratios(A, r.X12)}});
+  write_vtk(out.path("B_on_A.vtk"), TetMesh{r.X21, B.T}, {{"round_trip", round_trip_distances(B, A, r.map21, r.X12)}},
+            {{"volume_ratio", tet_volume_ratios(B, r.X21)}});
   // The maps index the tets we made from surface inputs: without them map_AB.txt and the
   // rest positions of A_on_B.vtk's vertices could not be read.
   if (inA.from_surface) write_volume(out.path("A.vtk"), A);
@@ -261,6 +265,14 @@ void add_energy_weight_options(CLI::App* app, VolumeMapArgs& a) {
 void add_alternation_options(CLI::App* app, VolumeMapArgs& a) {
   app->add_option("--max-iterations", a.opt.max_iterations,
                   "Outer iterations of stage 4 at most (Sec. 5.4); stage 2: times --boundary-fixed-iteration-factor")
+      ->check(non_negative())
+      ->capture_default_str();
+  app->add_option("--decrease-tol", a.opt.decrease_tol,
+                  "Stages 2 and 4 stop when Eq. 25 falls by less than this between outer iterations "
+                  "(Sec. 5.4 (ii)) ...")
+      ->check(non_negative())
+      ->capture_default_str();
+  app->add_option("--decrease-rel-tol", a.opt.decrease_rel_tol, "... or by less than this times Eq. 25")
       ->check(non_negative())
       ->capture_default_str();
   app->add_option("--xstep-iterations", a.opt.xstep_iterations, "L-BFGS iterations per X-step")

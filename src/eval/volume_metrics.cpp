@@ -62,9 +62,9 @@ void jacobian_distortion(const TetMesh& source, const Eigen::MatrixXd& Vs, const
 
 // Eqs. 27-28 between the mapped boundary X(dM_i) and dM_j, at vertices, over the target's
 // bbox diagonal: d^_avg (both ways) and d^_max.
-void boundary_distances(const TetMesh& source, const TetMesh& target, const Eigen::MatrixXd& X, double diag,
+void boundary_distances(const TetBoundary& bs, const TetMesh& target, const Eigen::MatrixXd& X, double diag,
                         VolumeMapMetrics& r) {
-  TetBoundary bs = boundary_surface(source), bt = boundary_surface(target);
+  TetBoundary bt = boundary_surface(target);
   Eigen::MatrixXd Xb(bs.to_volume.size(), 3);
   for (int b = 0; b < Xb.rows(); ++b) Xb.row(b) = X.row(bs.to_volume(b));
   ClosestPoint3 to_target(bt.surface.V, bt.surface.F), to_mapped(Xb, bs.surface.F);
@@ -82,22 +82,26 @@ void boundary_distances(const TetMesh& source, const TetMesh& target, const Eige
 }
 
 // Eq. 18 term (i,j) in the source's unit-volume frame ns (Vs = ns(V_i)):
-// 1/c_i^2 ||P_ij X_ji - V_i||^2_{M_i}, with the lumped tet mass of M_i.
-double reversibility_energy(const TetMesh& source, const TetMesh& target, const Normalization& ns,
-                            const Eigen::MatrixXd& Vs, const BarycentricMap& P_ij, const Eigen::MatrixXd& X_ji) {
-  const int ni = source.num_vertices();
-  validate_map(P_ij, ni, target.num_tets(), 4, "map");
-  if (X_ji.rows() != target.num_vertices() || X_ji.cols() != 3)
-    throw InputError("reverse map: wrong number of rows");
-  Eigen::MatrixXd Xjin = ns.apply(X_ji);  // target vertices' images, source unit frame
-  Eigen::VectorXd C = tet_lumped_mass(Vs, source.T);
-  double c = C.sum(), e = 0;
-  for (int v = 0; v < ni; ++v) {
-    Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
-    for (int q = 0; q < 4; ++q) p += P_ij.bary(v, q) * Xjin.row(target.T(P_ij.elem(v), q));
-    e += C(v) * (p - Vs.row(v)).squaredNorm();
+// 1/c_i^2 ||P_ij X_ji - V_i||^2_{M_i}, with the lumped tet mass of M_i; and where it sits.
+void reversibility_energy(const TetMesh& source, const TetBoundary& bs, const TetMesh& target, const Normalization& ns,
+                          const Eigen::MatrixXd& Vs, const BarycentricMap& P_ij, const Eigen::MatrixXd& X_ji,
+                          VolumeMapMetrics& r) {
+  const Eigen::VectorXd rt = round_trip_distances(source, target, P_ij, X_ji);
+  const Eigen::VectorXd C = tet_lumped_mass(Vs, source.T);
+  std::vector<char> on_boundary(size_t(source.num_vertices()), 0);
+  for (Eigen::Index b = 0; b < bs.to_volume.size(); ++b) on_boundary[size_t(bs.to_volume(b))] = 1;
+  const double c = C.sum();
+  double e = 0, e_boundary = 0;
+  for (Eigen::Index v = 0; v < rt.size(); ++v) {
+    const double d = ns.scale * rt(v);  // the unit-volume frame is a scaled copy
+    e += C(v) * d * d;
+    if (on_boundary[size_t(v)]) e_boundary += C(v) * d * d;
   }
-  return e / (c * c);
+  r.E_R = e / (c * c);
+  r.E_R_boundary_share = e > 0 ? e_boundary / e : 0;
+  const double diag = bbox_diagonal(source.V);
+  r.round_trip_max = rt.size() > 0 && diag > 0 ? rt.maxCoeff() / diag : 0;
+  r.round_trip_avg = rt.size() > 0 && diag > 0 ? rt.mean() / diag : 0;
 }
 
 // Mean and largest |X - X_true| over the target's bbox diagonal.
@@ -119,6 +123,21 @@ void truth_error(const Eigen::MatrixXd& X, const Eigen::MatrixXd& truth, double 
 
 }  // namespace
 
+Eigen::VectorXd round_trip_distances(const TetMesh& source, const TetMesh& target, const BarycentricMap& P_ij,
+                                     const Eigen::MatrixXd& X_ji) {
+  const int ni = source.num_vertices();
+  validate_map(P_ij, ni, target.num_tets(), 4, "map");
+  if (X_ji.rows() != target.num_vertices() || X_ji.cols() != 3)
+    throw InputError("reverse map: wrong number of rows");
+  Eigen::VectorXd d(ni);
+  for (int v = 0; v < ni; ++v) {
+    Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
+    for (int q = 0; q < 4; ++q) p += P_ij.bary(v, q) * X_ji.row(target.T(P_ij.elem(v), q));
+    d(v) = (p - source.V.row(v)).norm();
+  }
+  return d;
+}
+
 VolumeMapMetrics volume_map_metrics(const TetMesh& source, const TetMesh& target,
                                     const Eigen::MatrixXd& X, const BarycentricMap* P_ij,
                                     const Eigen::MatrixXd* X_ji, const Eigen::MatrixXd* truth) {
@@ -132,8 +151,9 @@ VolumeMapMetrics volume_map_metrics(const TetMesh& source, const TetMesh& target
   Normalization ns = unit_volume_normalization(source), nt = unit_volume_normalization(target);
   Eigen::MatrixXd Vs = ns.apply(source.V), Xn = nt.apply(X);
   jacobian_distortion(source, Vs, Xn, r);
-  boundary_distances(source, target, X, diag, r);
-  if (P_ij && X_ji) r.E_R = reversibility_energy(source, target, ns, Vs, *P_ij, *X_ji);
+  const TetBoundary bs = boundary_surface(source);
+  boundary_distances(bs, target, X, diag, r);
+  if (P_ij && X_ji) reversibility_energy(source, bs, target, ns, Vs, *P_ij, *X_ji, r);
   if (truth) truth_error(X, *truth, diag, r);
   return r;
 }

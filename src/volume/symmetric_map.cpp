@@ -13,6 +13,7 @@
 #include "shapemap/timing.h"
 #include "shapemap/volume/foldover_free.h"
 #include "shapemap/volume/reconcile_boundary.h"
+#include "shapemap/volume/locate_keeping_positive.h"
 #include "shapemap/volume/return_to_boundary.h"
 #include "shapemap/volume/target_coverage.h"
 #include "shapemap/volume/untangle.h"
@@ -783,6 +784,13 @@ LbfgsResult newton_rows(const DirectionalEnergy& e, ProjectedNewton& pn, Eigen::
                      profile);
 }
 
+// Rows where Y differs from X.
+std::vector<char> rows_moved(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y) {
+  std::vector<char> moved(size_t(X.rows()), 0);
+  for (Eigen::Index v = 0; v < X.rows(); ++v) moved[size_t(v)] = X.row(v) != Y.row(v);
+  return moved;
+}
+
 int count_inverted(const ArapEnergy& arap, const Eigen::MatrixXd& X) {
   Eigen::VectorXd d = arap.determinants(X);
   int c = 0;
@@ -1081,7 +1089,7 @@ class Landing {
       if (best_count > 0) lift_flat_tets(surface_rows, best_map, best, best_count);
     }
     if (landed && best_count > 0) untangle_regularized(surface_rows, best_map, best, best_count);
-    if (landed) return_to_boundary(best_map, best, best_count);
+    if (landed) return_to_boundary(best_map, best);
     X = best;
     located = best_map;
     return landed;
@@ -1182,7 +1190,7 @@ class Landing {
   // Step 8 (ours), on the located map: boundary rows that the steps before left inside M_j
   // go back to dM_j, or toward it, where their tets stay positive as in the projection
   // (return_to_boundary.h); the map is located again.
-  void return_to_boundary(BarycentricMap& best_map, Eigen::MatrixXd& best, int best_count) {
+  void return_to_boundary(BarycentricMap& best_map, Eigen::MatrixXd& best) {
     if (!opt_.land_return_rows) return;
     Eigen::MatrixXd Y = best;
     std::vector<int> rows;  // on dM_j afterwards
@@ -1191,12 +1199,10 @@ class Landing {
         1e-9 * mean_target_edge(), [&](int v, const Eigen::RowVector3d& q) { return move_keeping_positive(Y, v, q); },
         rows);
     if (moved == 0) return;
-    BarycentricMap m = locate_in_tets(Mj_, Y, rows);
-    Eigen::MatrixXd P = map_positions(m, Mj_.V, Mj_.T);
-    if (count_inverted(e_.arap(), P) > best_count) return;
-    best_map = std::move(m);
-    best = std::move(P);
-    st_.land_returned += moved;
+    // Located in M_j: the rows of a tet that this turns over go back (locate_keeping_positive.h).
+    const int back =
+        take_rows_keeping_positive(e_.arap(), Mj_, locate_in_tets(Mj_, Y, rows), rows_moved(best, Y), best_map, best);
+    if (back >= 0) st_.land_returned += std::max(0, moved - back);
   }
 
   bool move_keeping_positive(Eigen::MatrixXd& X, int v, const Eigen::RowVector3d& p) const {
@@ -1981,12 +1987,10 @@ class SymmetricMapSolver {
         std::vector<int> rows;
         for (Eigen::Index r = 0; r < bi.to_volume.size(); ++r)
           if (on[bi.to_volume(r)]) rows.push_back(bi.to_volume(r));
-        BarycentricMap m = locate_in_tets(Mj, Y, rows);
-        Eigen::MatrixXd P = map_positions(m, Mj.V, Mj.T);
-        if (count_inverted(arap, P) > count_inverted(arap, X)) return;
-        X = std::move(P);
-        located = std::move(m);
-        moved += n;
+        // Located in M_j: the rows of a tet that this turns over go back (locate_keeping_positive.h).
+        const int back =
+            take_rows_keeping_positive(arap, Mj, locate_in_tets(Mj, Y, rows), rows_moved(X, Y), located, X);
+        if (back >= 0) moved += std::max(0, n - back);
       };
       run_pair([&] { apply(moves12, e12_.arap(), vt1_, M2_, b1, b2, on12, X12_, final12_, moved12); },
                [&] { apply(moves21, e21_.arap(), vt2_, M1_, b2, b1, on21, X21_, final21_, moved21); },
@@ -2022,29 +2026,10 @@ class SymmetricMapSolver {
     memo_ = {};
     e12_.set_barrier(nullptr);
     e21_.set_barrier(nullptr);
-    relocate_interior(e12_.arap(), M2_, int1_, X12, X12_, final12_);
-    relocate_interior(e21_.arap(), M1_, int2_, X21, X21_, final21_);
-    count_inversions(res_.stages.back());
-  }
-  // X's interior rows located in Mj (the boundary rows stay as `located` holds them); X and
-  // `located` take them unless they invert more tets than X_before, else X = X_before.
-  static void relocate_interior(const ArapEnergy& arap, const TetMesh& Mj, const std::vector<int>& interior,
-                                const Eigen::MatrixXd& X_before, Eigen::MatrixXd& X, BarycentricMap& located) {
-    Eigen::MatrixXd Q(interior.size(), 3);
-    for (size_t q = 0; q < interior.size(); ++q) Q.row(q) = X.row(interior[q]);
-    const BarycentricMap inside = locate_in_tets(Mj, Q);
-    BarycentricMap m = located;
-    for (size_t q = 0; q < interior.size(); ++q) {
-      m.elem(interior[q]) = inside.elem(q);
-      m.bary.row(interior[q]) = inside.bary.row(q);
-    }
-    Eigen::MatrixXd P = map_positions(m, Mj.V, Mj.T);
-    if (count_inverted(arap, P) > count_inverted(arap, X_before)) {
-      X = X_before;
-      return;
-    }
-    X = std::move(P);
-    located = std::move(m);
+    SymmetricMapStage& st = res_.stages.back();
+    st.relocated12 = relocate_interior(e12_.arap(), M2_, int1_, X12, X12_, final12_);
+    st.relocated21 = relocate_interior(e21_.arap(), M1_, int2_, X21, X21_, final21_);  // locate_keeping_positive.h
+    count_inversions(st);
   }
 
   // Stage 4 again at alpha_final from the map it converged to (SymmetricVolumeMapOptions::

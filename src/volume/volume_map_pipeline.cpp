@@ -131,7 +131,12 @@ nlohmann::json volume_metrics_json(const VolumeMapMetrics& m) {
   j["det_J_mean"] = m.det_mean;
   j["det_J_sd"] = m.det_sd;
   j["E_ARAP"] = m.E_arap;
-  if (!std::isnan(m.E_R)) j["E_R"] = m.E_R;
+  if (!std::isnan(m.E_R)) {
+    j["E_R"] = m.E_R;
+    j["E_R_boundary_share"] = m.E_R_boundary_share;
+    j["round_trip_max_hat"] = m.round_trip_max;
+    j["round_trip_avg_hat"] = m.round_trip_avg;
+  }
   if (m.has_truth) {
     j["truth_error_mean"] = m.truth_mean;
     j["truth_error_max"] = m.truth_max;
@@ -328,6 +333,7 @@ nlohmann::json stages_json(const SymmetricVolumeMapResult& r) {
                       {"anderson_accepted", s.anderson_accepted}, {"anderson_rejected", s.anderson_rejected},
                       {"land_unprojected", s.land_unprojected}, {"land_returned", s.land_returned},
                       {"land_uncovered", s.land_uncovered}, {"land_reconciled", s.land_reconciled},
+                      {"relocated_AB", s.relocated12}, {"relocated_BA", s.relocated21},
                       {"newton_seconds", {{"energy", s.newton_seconds[0]}, {"hessian", s.newton_seconds[1]},
                                           {"factor", s.newton_seconds[2]}, {"solve", s.newton_seconds[3]}}},
                       {"stop_reason", s.stop_reason}, {"energy_history", s.energy_history},

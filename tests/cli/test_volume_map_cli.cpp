@@ -250,6 +250,22 @@ TEST(VolumeMapCli, PostRepairFallbackRemovesTheLastInvertedTets) {
   }
 }
 
+// The scalar field `name` of a VTK file's POINT_DATA (written by write_vtk), n values.
+static Eigen::VectorXd point_field(const std::string& path, const std::string& name, int n) {
+  std::ifstream in(path);
+  std::string word;
+  while (in >> word)
+    if (word == "POINT_DATA") break;
+  while (in >> word)
+    if (word == "SCALARS" && (in >> word) && word == name) break;
+  std::getline(in, word);  // "double 1"
+  std::getline(in, word);  // LOOKUP_TABLE default
+  Eigen::VectorXd f(n);
+  for (int i = 0; i < n; ++i)
+    if (!(in >> f(i))) ADD_FAILURE() << path << ": no " << name << " value " << i;
+  return f;
+}
+
 // Surface inputs are tetrahedralized inside the command: the tet meshes the maps index are
 // written beside them (A.vtk, B.vtk), consistent with map_AB.txt, map_BA.txt and A_on_B.vtk.
 TEST(VolumeMapCli, SurfaceInputsWriteTheTetMeshesTheMapsIndex) {
@@ -291,4 +307,19 @@ TEST(VolumeMapCli, SurfaceInputsWriteTheTetMeshesTheMapsIndex) {
   EXPECT_EQ(run("evaluate volume " + t.p("out/A.vtk") + " " + t.p("out/B.vtk") + " " + t.p("out/map_AB.txt") +
                 " -o " + t.p("eval.json")),
             0);
+  // A_on_B.vtk's per-vertex round trip: A's vertex through map_AB, then map_BA's images of
+  // B's vertices, back in A, against where it started.
+  const Eigen::MatrixXd XBA = map_positions(read_map(t.p("out/map_BA.txt")), TA.V, TA.T);
+  const Eigen::MatrixXd back = map_positions(read_map(t.p("out/map_AB.txt")), XBA, TBm.T);
+  const Eigen::VectorXd rt = point_field(t.p("out/A_on_B.vtk"), "round_trip", TA.num_vertices());
+  double mx = 0;
+  for (int v = 0; v < TA.num_vertices(); ++v) {
+    EXPECT_NEAR(rt(v), (back.row(v) - TA.V.row(v)).norm(), 1e-9);
+    mx = std::max(mx, rt(v));
+  }
+  EXPECT_GT(mx, 0);
+  const nlohmann::json& m = r["metrics"]["AB"];
+  EXPECT_NEAR(m["round_trip_max_hat"].get<double>(), mx / bbox_diagonal(TA.V), 1e-9);
+  EXPECT_GE(m["E_R_boundary_share"].get<double>(), 0);
+  EXPECT_LE(m["E_R_boundary_share"].get<double>(), 1);
 }

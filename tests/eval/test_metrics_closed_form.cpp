@@ -1,7 +1,8 @@
 // The papers' metrics against answers computed by hand: an affine map's det J^ and ARAP
 // energy (symmetric volume maps, Sec. 6.1), d^ between two concentric spheres (Eqs. 27-28),
 // D_V of a map that scales half of a cube (isovolumetric ball, Eq. 45), and the geodesic
-// error of the antipodal map on a sphere (BIM, Sec. 8.2).
+// error of the antipodal map on a sphere (BIM, Sec. 8.2), and the round trips behind E_R
+// (Eq. 18) of a map whose way back moves each vertex by a known amount.
 #include "geometry/fixtures.h"
 #include "shapemap/eval/ball_metrics.h"
 #include "shapemap/eval/surface_metrics.h"
@@ -50,6 +51,55 @@ TEST(MetricsClosedForm, ScalingIsRigidInUnitVolumeFramesAndAMirrorInvertsEveryth
   EXPECT_EQ(r.n_inv, S.num_tets());
   // A mirror's singular values are all 1 (signed SVD: one is -1): f_ARAP = (-1 - 1)^2 = 4.
   EXPECT_NEAR(r.E_arap, 2.0, 1e-12);
+}
+
+TEST(MetricsClosedForm, RoundTripsOfAWayBackThatMovesEachVertexByAKnownAmount) {
+  // P_ij puts each vertex of the cube at itself (a corner of one of its tets); X_ji moves
+  // vertex v by delta_v = 0.01 (v mod 3) along x. So v's round trip is |delta_v| and, on
+  // unit volume (scale s), E_R = sum_v C_v (s delta_v)^2 / c^2 with the lumped mass C_v =
+  // a quarter of the unit volumes of v's tets and c = 1.
+  const TetMesh S = cube_tets(3);
+  const int n = S.num_vertices();
+  BarycentricMap P;
+  P.elem.resize(n);
+  P.bary.setZero(n, 4);
+  for (int k = 0; k < S.num_tets(); ++k)
+    for (int q = 0; q < 4; ++q) {
+      P.elem(S.T(k, q)) = k;
+      P.bary.row(S.T(k, q)).setZero();
+      P.bary(S.T(k, q), q) = 1;
+    }
+  Eigen::MatrixXd Xji = S.V;
+  Eigen::VectorXd delta(n);
+  for (int v = 0; v < n; ++v) Xji(v, 0) += delta(v) = 0.01 * (v % 3);
+  const Eigen::VectorXd rt = round_trip_distances(S, S, P, Xji);
+  for (int v = 0; v < n; ++v) EXPECT_NEAR(rt(v), delta(v), 1e-15);
+  // By hand: tet volumes, the unit-volume scale, the lumped masses, the boundary.
+  Eigen::VectorXd mass = Eigen::VectorXd::Zero(n);
+  double volume = 0;
+  for (int k = 0; k < S.num_tets(); ++k) {
+    Eigen::Matrix3d D;
+    for (int j = 0; j < 3; ++j) D.col(j) = (S.V.row(S.T(k, j + 1)) - S.V.row(S.T(k, 0))).transpose();
+    const double vk = std::abs(D.determinant()) / 6;
+    volume += vk;
+    for (int q = 0; q < 4; ++q) mass(S.T(k, q)) += vk / 4;
+  }
+  const double s = std::cbrt(1 / volume), lo = S.V.minCoeff(), hi = S.V.maxCoeff();
+  double E = 0, E_boundary = 0;
+  for (int v = 0; v < n; ++v) {
+    const double e = mass(v) / volume * (s * delta(v)) * (s * delta(v));
+    E += e;
+    const bool on_boundary = (S.V.row(v).array() == lo).any() || (S.V.row(v).array() == hi).any();
+    if (on_boundary) E_boundary += e;
+  }
+  const VolumeMapMetrics m = volume_map_metrics(S, S, S.V, &P, &Xji);
+  EXPECT_GT(E, 0);
+  EXPECT_NEAR(m.E_R, E, 1e-12 * E);
+  EXPECT_NEAR(m.E_R_boundary_share, E_boundary / E, 1e-12);
+  EXPECT_LT(m.E_R_boundary_share, 1);  // the cube has interior vertices with delta > 0
+  const double diag = (S.V.colwise().maxCoeff() - S.V.colwise().minCoeff()).norm();
+  EXPECT_NEAR(m.round_trip_max, 0.02 / diag, 1e-15);
+  EXPECT_NEAR(m.round_trip_avg, delta.mean() / diag, 1e-15);
 }
 
 TEST(MetricsClosedForm, HausdorffAndMeanDistanceBetweenConcentricSpheres) {

@@ -19,6 +19,12 @@ struct VolumeMapMetrics {
   double E_arap = 0;          // Eq. 20 (this direction: 1/(2c_i) sum v_k f(J_k)), unit volumes
   double E_R = std::numeric_limits<double>::quiet_NaN();  // Eq. 18 term (i,j): needs P_ij and
                               // X_ji; 1/c_i^2 ||P_ij X_ji - V_i||^2_{M_i}, unit volumes
+  // Where E_R sits (ours; with E_R): the round trip |P_ij X_ji - V_i| of a vertex (through
+  // M_j and back) over the source's bbox diagonal, largest and mean over the vertices, and
+  // the share of E_R on the boundary vertices of M_i.
+  double round_trip_max = std::numeric_limits<double>::quiet_NaN();
+  double round_trip_avg = std::numeric_limits<double>::quiet_NaN();
+  double E_R_boundary_share = std::numeric_limits<double>::quiet_NaN();
   bool has_truth = false;     // error against ground-truth images (when given):
   double truth_mean = 0;      // mean |X - X_true| / target bbox diagonal
   double truth_max = 0;       // max  |X - X_true| / target bbox diagonal
@@ -28,6 +34,12 @@ struct VolumeMapMetrics {
 // vertices in target coordinates. Optional: P_ij (source vertex -> target tet) with X_ji
 // (n_j×3 images of the target vertices in source coordinates) for E_R; truth (n_i×3)
 // ground-truth images in target coordinates.
+// Per source vertex v, the round trip |(P_ij X_ji)(v) - V_i(v)| in the source's own
+// coordinates: how far v lands from itself through M_j and back (Eq. 18's integrand; the
+// `round_trip` field of A_on_B.vtk).
+Eigen::VectorXd round_trip_distances(const TetMesh& source, const TetMesh& target, const BarycentricMap& P_ij,
+                                     const Eigen::MatrixXd& X_ji);
+
 VolumeMapMetrics volume_map_metrics(const TetMesh& source, const TetMesh& target,
                                     const Eigen::MatrixXd& X, const BarycentricMap* P_ij = nullptr,
                                     const Eigen::MatrixXd* X_ji = nullptr,

@@ -224,6 +224,8 @@ struct SymmetricMapStage {
   int land_returned = 0;     // landing: boundary vertices put back from inside M_j toward dM_j
   int land_uncovered = 0;    // landing: vertices of dM_j the local gamma round pulled the image to
   int land_reconciled = 0;   // landing: boundary images moved to make the two maps mutually inverse
+  int relocated12 = 0, relocated21 = 0;  // interior-reversible: interior rows put back where
+                             // locating them in M_j turned a tet over (-1: the whole stage undone)
   std::string stop_reason;   // "gradient", "decrease", "iterations" (stages 2, 4)
   std::vector<double> energy_history, gradient_history;  // per outer iteration
 };
