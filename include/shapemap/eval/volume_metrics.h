@@ -30,16 +30,16 @@ struct VolumeMapMetrics {
   double truth_max = 0;       // max  |X - X_true| / target bbox diagonal
 };
 
-// source, target: tet meshes in their own coordinates; X: n_i×3 images of the source
-// vertices in target coordinates. Optional: P_ij (source vertex -> target tet) with X_ji
-// (n_j×3 images of the target vertices in source coordinates) for E_R; truth (n_i×3)
-// ground-truth images in target coordinates.
 // Per source vertex v, the round trip |(P_ij X_ji)(v) - V_i(v)| in the source's own
 // coordinates: how far v lands from itself through M_j and back (Eq. 18's integrand; the
 // `round_trip` field of A_on_B.vtk).
 Eigen::VectorXd round_trip_distances(const TetMesh& source, const TetMesh& target, const BarycentricMap& P_ij,
                                      const Eigen::MatrixXd& X_ji);
 
+// source, target: tet meshes in their own coordinates; X: n_i×3 images of the source
+// vertices in target coordinates. Optional: P_ij (source vertex -> target tet) with X_ji
+// (n_j×3 images of the target vertices in source coordinates) for E_R; truth (n_i×3)
+// ground-truth images in target coordinates.
 VolumeMapMetrics volume_map_metrics(const TetMesh& source, const TetMesh& target,
                                     const Eigen::MatrixXd& X, const BarycentricMap* P_ij = nullptr,
                                     const Eigen::MatrixXd* X_ji = nullptr,
