@@ -26,18 +26,21 @@ void accumulate(UntangleResult& total, const UntangleResult& pass, bool first) {
 }  // namespace
 
 SurfaceUntangling untangle_surface_maps(const TriMesh& A, const TriMesh& B, BarycentricMap& P, BarycentricMap& Q,
-                                        const SurfaceRefinementOptions& opt) {
+                                        const SurfaceRefinementOptions& opt, const std::vector<int>& held_A,
+                                        const std::vector<int>& held_B) {
   SurfaceUntangling u;
   const bool bij = Q.size() == B.num_vertices();
   u.wide = opt.wide_untangle;
   u.slivers = opt.sliver_untangle;
   u.bridges = opt.bridge_untangle;
   // one stage: A -> B with the reverse map as it is, then B -> A with the new A -> B
-  auto stage = [&](const UntangleOptions& o, UntangleResult& ab, UntangleResult& ba, bool first) {
+  auto stage = [&](UntangleOptions o, UntangleResult& ab, UntangleResult& ba, bool first) {
+    o.held = held_A;
     const UntangleResult rab = untangle_surface_map(A, B, P, o, bij ? &Q : nullptr);
     accumulate(ab, rab, first);
     u.final_AB = rab.after;
     if (bij) {
+      o.held = held_B;
       const UntangleResult rba = untangle_surface_map(B, A, Q, o, &P);
       accumulate(ba, rba, first);
       u.final_BA = rba.after;
@@ -95,11 +98,11 @@ namespace {
 // elsewhere the returned map is the last iterate) untangled, and made r's maps when neither
 // direction then has more folds than its initial map. Returns whether they were.
 bool last_iterates_untangled(const TriMesh& A, const TriMesh& B, ElasticResult& r,
-                             const SurfaceRefinementOptions& opt, SurfaceUntangling& u) {
+                             const SurfaceRefinementOptions& opt, const FeatureAnchors& held, SurfaceUntangling& u) {
   const bool bij = r.map_BA.size() == B.num_vertices();
   BarycentricMap P = r.last_AB.size() > 0 ? r.last_AB : r.map_AB;
   BarycentricMap Q = bij && r.last_BA.size() > 0 ? r.last_BA : r.map_BA;
-  SurfaceUntangling v = untangle_surface_maps(A, B, P, Q, opt);
+  SurfaceUntangling v = untangle_surface_maps(A, B, P, Q, opt, held.A, held.B);
   if (v.final_AB.bad() > r.guard_AB.initial_bad || (bij && v.final_BA.bad() > r.guard_BA.initial_bad)) return false;
   auto revise = [&](ElasticGuard& g, BarycentricMap& last) {
     if (last.size() == 0) return;
@@ -121,21 +124,21 @@ SurfaceRefinement refine_surface_maps(const TriMesh& A, const TriMesh& B, const 
                                       const BarycentricMap& init_BA, const SurfaceRefinementOptions& opt) {
   SurfaceRefinement out;
   ElasticOptions eo = opt.elastic;
-  BarycentricMap P = init_AB, Q = init_BA;
-  if (opt.reextend_collapsed) {
-    P = reextend_collapsed_parts(A, B, init_AB, opt.collapsed_parts, &out.collapsed_AB);
-    if (eo.model == ElasticModel::Bijective && init_BA.size() == B.num_vertices())
-      Q = reextend_collapsed_parts(B, A, init_BA, opt.collapsed_parts, &out.collapsed_BA);
-  }
   if (!eo.anchors.A.empty()) {
     out.anchors.A = eo.anchors.A;
     out.anchors.B = eo.anchors.B;
   } else if (opt.feature_anchors && eo.model == ElasticModel::Bijective) {
     const auto t0 = Clock::now();
-    out.anchors = mutual_feature_anchors(A, B, P, Q, opt.anchoring);
+    out.anchors = mutual_feature_anchors(A, B, init_AB, init_BA, opt.anchoring);
     out.anchor_seconds = seconds_since(t0);
     eo.anchors.A = out.anchors.A;
     eo.anchors.B = out.anchors.B;
+  }
+  BarycentricMap P = init_AB, Q = init_BA;
+  if (opt.reextend_collapsed) {
+    P = reextend_collapsed_parts(A, B, init_AB, opt.collapsed_parts, &out.collapsed_AB);
+    if (eo.model == ElasticModel::Bijective && init_BA.size() == B.num_vertices())
+      Q = reextend_collapsed_parts(B, A, init_BA, opt.collapsed_parts, &out.collapsed_BA);
   }
   out.elastic = elastic_correspondence(A, B, P, Q, eo);
   ElasticResult& r = out.elastic;
@@ -143,11 +146,11 @@ SurfaceRefinement refine_surface_maps(const TriMesh& A, const TriMesh& B, const 
   if (!opt.untangle) return out;
   out.untangled = true;
   if (opt.guard_untangled && eo.keep_no_worse && (r.last_AB.size() > 0 || r.last_BA.size() > 0) &&
-      last_iterates_untangled(A, B, r, opt, out.untangling)) {
+      last_iterates_untangled(A, B, r, opt, out.anchors, out.untangling)) {
     out.guard_revised = true;
     return out;
   }
-  out.untangling = untangle_surface_maps(A, B, r.map_AB, r.map_BA, opt);
+  out.untangling = untangle_surface_maps(A, B, r.map_AB, r.map_BA, opt, out.anchors.A, out.anchors.B);
   return out;
 }
 

@@ -2,6 +2,7 @@
 #include "shapemap/surface/untangle.h"
 
 #include "shapemap/adjacency.h"
+#include "shapemap/error.h"
 #include "shapemap/geometry/closest_point.h"
 #include <chrono>
 
@@ -91,6 +92,7 @@ struct Untangler {
   BarycentricMap& P;
   Eigen::MatrixXd Y;                 // current images (unit-area target frame)
   Eigen::MatrixXd Y0;                // the images at the start (the tether's anchors)
+  std::vector<unsigned char> held;   // per source vertex: its image stays (UntangleOptions::held)
   std::vector<double> tether_w;      // per source vertex: w m_v / l_v^2
   std::vector<double> base_w;        // per source vertex: m_v / l_v^2
   std::vector<std::vector<int>> near_faces;  // per target face, faces_near's cache
@@ -316,7 +318,7 @@ struct Untangler {
   // with it (the refined image it held is the defect). Returns whether v moved.
   bool reseat_bridge(int v, const std::vector<unsigned char>& flags) {
     Eigen::Vector3d x, side;
-    if (!is_bridge(v, flags, x, side)) return false;
+    if (held[v] || !is_bridge(v, flags, x, side)) return false;
     if (!target_bvh) target_bvh = std::make_unique<ClosestPoint3>(Xt, Ft);
     // the average lies below their side's surface, nearer the far side where the part is
     // thinner than the ring (camel-gallop 10 -> 04's vertex 4252): lifted off it along the
@@ -336,6 +338,7 @@ struct Untangler {
   // Gauss-Seidel sweep of Tutte's embedding, which spreads images that coincide (collapsed
   // triangles, where every rotation-invariant energy of J is stationary).
   void average_vertex(int v) {
+    if (held[v]) return;
     Eigen::Vector3d x = Eigen::Vector3d::Zero();
     int k = 0;
     for (int q = inc_s.begin(v); q < inc_s.end(v); ++q)
@@ -353,6 +356,7 @@ struct Untangler {
   // differences of the gradient), projected back onto the target near the current face; kept
   // only if the energy around v falls. Returns whether the image moved.
   bool relax_vertex(int v, double delta) {
+    if (held[v]) return false;
     const int f0 = P.elem(v);
     const Eigen::Vector3d b0 = P.bary.row(v).transpose();
     const Eigen::Vector3d p0 = Y.row(v).transpose();
@@ -440,6 +444,7 @@ struct Untangler {
   // and its neighbours' images, kept at the best by (folds around it, energy). Returns the folds
   // removed (0 when it did not move or moved at equal folds).
   int search_vertex(int v, int grid, int rings, double delta, double degenerate_tol, double max_mips) {
+    if (held[v]) return 0;
     const int bad0 = folds_around(v, degenerate_tol);
     if (bad0 == 0) return 0;
     const std::vector<double> limits = mips_limits(v, max_mips, degenerate_tol);
@@ -644,6 +649,11 @@ UntangleResult untangle_surface_map(const TriMesh& S, const TriMesh& T, Barycent
   const auto t_start = std::chrono::steady_clock::now();
   UntangleResult res;
   Untangler U(S, T, P, opt.tether);
+  U.held.assign(S.V.rows(), 0);
+  for (int v : opt.held) {
+    if (v < 0 || v >= S.V.rows()) throw InputError("untangle: held vertex " + std::to_string(v) + " out of range");
+    U.held[v] = 1;
+  }
   if (Q && Q->size() == T.V.rows() && opt.reverse_weight > 0) U.set_reverse(*Q, opt.reverse_weight);
   const int n = int(S.V.rows()), m = int(S.F.rows());
   std::vector<unsigned char> flags, fl;

@@ -2,6 +2,7 @@
 // against finite differences, and injected folds on a generated pair come out fold-free.
 #include "shapemap/eval/surface_distortion.h"
 #include "surface_test_util.h"
+#include "shapemap/error.h"
 #include "shapemap/generate.h"
 #include "shapemap/geometry/closest_point.h"
 #include "shapemap/surface/untangle.h"
@@ -311,4 +312,43 @@ TEST(Untangle, SearchReseatsTheCornersOfFolds) {
   const auto [far_moved, err] = moves_from_truth(P, B, truth, near);
   EXPECT_EQ(far_moved, 0.0);
   EXPECT_LT(err, 0.05 * diag);
+}
+
+// UntangleOptions::held (the refinement's anchors): the images of held vertices stay in the
+// relaxation, the slivers' stage and the search, while the folds around them are still undone by
+// moving their neighbours. Held here: the vertex each injected fold was pushed past or onto.
+TEST(Untangle, HeldVerticesKeepTheirImages) {
+  const GeneratedPair pair = make_creature_pair(3, PairKind::NonIsometric, 1500);
+  const TriMesh &A = pair.A, &B = pair.B;
+  const InjectedFolds in = inject_folds(pair, 1.5, 9);
+  std::vector<int> held;
+  for (int v = 7; v < A.num_vertices() && int(held.size()) < in.count; v += A.num_vertices() / 6)
+    held.push_back(in.nb[v][0]);
+  ASSERT_GE(held.size(), 4u);
+  const int bad0 = bad(A, B, in.P);
+  ASSERT_GT(bad0, 0);
+  for (UntangleOptions opt : {UntangleOptions{}, UntangleOptions::slivers(), UntangleOptions::search()}) {
+    BarycentricMap P = in.P;
+    opt.held = held;
+    const UntangleResult r = untangle_surface_map(A, B, P, opt, &pair.truth_BA);
+    for (int v : held) {
+      EXPECT_EQ(P.elem(v), in.P.elem(v));
+      EXPECT_EQ(P.bary.row(v), in.P.bary.row(v));
+    }
+    EXPECT_LE(r.after.bad(), r.before.bad());
+    if (opt.sliver_mips == 0) EXPECT_LT(r.after.bad(), bad0);  // the fold stages undo folds still
+  }
+  BarycentricMap P = in.P;
+  UntangleOptions opt;
+  opt.held = held;
+  untangle_surface_map(A, B, P, opt, &pair.truth_BA);
+  EXPECT_EQ(bad(A, B, P), 0);
+  // without them held, the relaxation moves some of them
+  BarycentricMap free_map = in.P;
+  untangle_surface_map(A, B, free_map, UntangleOptions{}, &pair.truth_BA);
+  int moved = 0;
+  for (int v : held) moved += free_map.elem(v) != in.P.elem(v) || free_map.bary.row(v) != in.P.bary.row(v);
+  EXPECT_GT(moved, 0);
+  opt.held = {A.num_vertices()};
+  EXPECT_THROW(untangle_surface_map(A, B, P, opt), InputError);
 }

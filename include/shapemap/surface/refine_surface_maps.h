@@ -105,8 +105,10 @@ SurfaceRefinement refine_surface_maps(const TriMesh& A, const TriMesh& B, const 
                                       const BarycentricMap& init_BA, const SurfaceRefinementOptions& opt = {});
 
 // Stages 2 to 5 alone on P: A -> B and Q: B -> A (Q empty: A -> B only, without the
-// reversibility term), both changed in place.
+// reversibility term), both changed in place. held_A / held_B: vertices of A (of B) whose
+// images stay (UntangleOptions::held; refine_surface_maps passes stage 0's anchors).
 SurfaceUntangling untangle_surface_maps(const TriMesh& A, const TriMesh& B, BarycentricMap& P, BarycentricMap& Q,
-                                        const SurfaceRefinementOptions& opt = {});
+                                        const SurfaceRefinementOptions& opt = {},
+                                        const std::vector<int>& held_A = {}, const std::vector<int>& held_B = {});
 
 }  // namespace shapemap

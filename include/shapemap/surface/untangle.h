@@ -50,6 +50,11 @@ struct UntangleOptions {
   // free vertex, Q(y) interpolated linearly over y's face (the round trip P then Q, Sec. 3.2).
   double reverse_weight = 10;
   double degenerate_tol = 1e-12;  // collapsed: a <= tol a^ (as surface_distortion counts)
+  // Source vertices whose images stay in every stage: the refinement's anchors (feature points
+  // or landmarks, feature_anchors.h), which it held on their partners; the rest of a region
+  // moves around them (cat -> lion: the sliver stage moved the cat's tail tip 0.05 off the
+  // lion's, docs/methods.md, "Anchors kept through the untangling").
+  std::vector<int> held;
   // Sliver: a mapped triangle, not flipped or collapsed, whose conformal distortion MIPS - 2
   // (surface_distortion's, s1/s2 + s2/s1 - 2) exceeds this (10: singular values ~12 apart).
   // 0 = folds only (stages 2 and 3); slivers() sets it for stage 4.
