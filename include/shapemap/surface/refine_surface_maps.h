@@ -2,7 +2,7 @@
 // surface-map command's elastic method (surface_map_pipeline.h), the Python module through it,
 // and the automatic initialization of volume maps (volume/symmetric_map.h,
 // surface_map_for_volumes):
-//   before stage 0, the collapsed parts of the initial maps re-extended (collapsed_parts.h): the
+//   after stage 0 (anchors from the initial maps), the collapsed parts of the initial maps re-extended (collapsed_parts.h): the
 //      parts that BIM's conformal maps shrink to a point, which the refinement cannot undo;
 //   0. feature anchors (feature_anchors.h): the AGD maxima that the initial maps send onto
 //      each other are held together through stage 1 (ElasticOptions::anchors), unless anchors
@@ -37,7 +37,7 @@
 namespace shapemap {
 
 struct SurfaceRefinementOptions {
-  // before stage 0, per initial map (--elastic-no-collapsed-parts turns it off)
+  // after stage 0, per initial map (--elastic-no-collapsed-parts turns it off)
   bool reextend_collapsed = true;
   CollapsedPartOptions collapsed_parts;
   // stage 0 (bijective model, elastic.anchors empty; --elastic-no-feature-anchors turns it off)
@@ -85,7 +85,7 @@ struct SurfaceUntangling {
 };
 
 struct SurfaceRefinement {
-  CollapsedPartResult collapsed_AB, collapsed_BA;  // before stage 0 (BA: bijective model)
+  CollapsedPartResult collapsed_AB, collapsed_BA;  // after stage 0 (BA: bijective model)
   FeatureAnchors anchors;  // stage 0's pairs (or the anchors given), empty when none
   double anchor_seconds = 0;
   // elastic.map_AB / map_BA: the returned maps, untangled when `untangled`; the rest of
