@@ -2,7 +2,8 @@
 // surface-map command's elastic method (surface_map_pipeline.h), the Python module through it,
 // and the automatic initialization of volume maps (volume/symmetric_map.h,
 // surface_map_for_volumes):
-//   after stage 0 (anchors from the initial maps), the collapsed parts of the initial maps re-extended (collapsed_parts.h): the
+//   after stage 0 (anchors from the initial maps), the collapsed parts of the initial maps
+//      re-extended (collapsed_parts.h): the
 //      parts that BIM's conformal maps shrink to a point, which the refinement cannot undo;
 //   0. feature anchors (feature_anchors.h): the AGD maxima that the initial maps send onto
 //      each other are held together through stage 1 (ElasticOptions::anchors), unless anchors
